@@ -1,0 +1,36 @@
+# Every target sets up .venv from the project's own files; only python3 is needed.
+PY      ?= python3
+VENV    := .venv
+VPY     := $(VENV)/bin/python
+STAMP   := $(VENV)/.installed-$(shell cat pyproject.toml | cksum | cut -d' ' -f1)
+export NUMBA_CACHE_DIR ?= $(CURDIR)/.numba_cache
+export OMP_NUM_THREADS ?= 1
+export OPENBLAS_NUM_THREADS ?= 1
+export MKL_NUM_THREADS ?= 1
+export MPLBACKEND ?= Agg
+
+.PHONY: venv run test bench verify clean
+
+$(STAMP): pyproject.toml
+	test -x $(VPY) || $(PY) -m venv $(VENV)
+	$(VPY) -m pip install --quiet --upgrade pip
+	$(VPY) -m pip install --quiet -e ".[fe,dev]"
+	rm -f $(VENV)/.installed-* && touch $@
+
+venv: $(STAMP)
+
+run: $(STAMP)
+	$(VPY) -m ngs_driver run koyna
+
+test: $(STAMP)
+	$(VPY) -m pytest -q --benchmark-disable tests
+
+bench: $(STAMP)
+	$(VPY) -m pytest -q tests/bench --benchmark-only --benchmark-json=.benchmarks.json
+	$(VPY) verification/write_benchmarks.py
+
+verify: $(STAMP)
+	$(VPY) verification/run_all.py
+
+clean:
+	rm -rf $(VENV) .numba_cache verification/out

@@ -1,0 +1,176 @@
+"""Public API of the interface law: validate, allocate, call the numba kernel."""
+from __future__ import annotations
+
+from dataclasses import dataclass, fields
+
+import numpy as np
+
+from . import _kernels
+from .params import CohesiveParams, ContactParams, DamageParams, FrictionParams
+
+__all__ = ["InterfaceState", "InterfaceLaw"]
+
+# below this many points the parallel kernel's thread start-up costs more than it saves
+# (measured with tests/bench/test_bench_law.py on 2 cores)
+PARALLEL_MIN_POINTS = 4096
+
+
+@dataclass(frozen=True)
+class InterfaceState:
+    """Committed history of n material points (struct of arrays, never mutated by the law).
+
+    kappa      (n,)      largest normalised gap reached, lambda_h (>= 1: debonded)
+    damage     (n,)      cyclic damage D in [0, 1]
+    separation (n,)      resultant separation hypot(<g_N>, |g_T|) of the committed gap [m]
+    slip       (n, d-1)  plastic (frictional) slip [m]
+    dissipated (n,)      cumulative dissipated energy per unit area [J/m^2]
+    """
+
+    kappa: np.ndarray
+    damage: np.ndarray
+    separation: np.ndarray
+    slip: np.ndarray
+    dissipated: np.ndarray
+
+    @property
+    def n(self) -> int:
+        return self.kappa.shape[0]
+
+    @property
+    def dim(self) -> int:
+        return self.slip.shape[1] + 1
+
+    @property
+    def debonded(self) -> np.ndarray:
+        return (self.kappa >= 1.0) | (self.damage >= 1.0)
+
+    def copy(self) -> "InterfaceState":
+        return InterfaceState(*(getattr(self, f.name).copy() for f in fields(self)))
+
+    def take(self, idx) -> "InterfaceState":
+        """The state of a subset of points (fancy index or mask)."""
+        return InterfaceState(*(getattr(self, f.name)[idx] for f in fields(self)))
+
+    def put(self, idx, other: "InterfaceState") -> "InterfaceState":
+        """A new state equal to this one with the points ``idx`` replaced by ``other``."""
+        new = self.copy()
+        for f in fields(self):
+            getattr(new, f.name)[idx] = getattr(other, f.name)
+        return new
+
+    def as_dict(self) -> dict:
+        return {f.name: getattr(self, f.name) for f in fields(self)}
+
+    @classmethod
+    def from_dict(cls, d) -> "InterfaceState":
+        return cls(*(np.array(d[f.name], dtype=np.float64) for f in fields(cls)))
+
+
+class InterfaceLaw:
+    """The material-point interface law of Paggi, Ferro & Braga (2013), §3.
+
+    Cohesive zone (always), and optionally contact, friction (needs contact) and cyclic damage.
+    The optional parts are chosen once here; the kernel compiled for this combination does not
+    contain the parts that are absent. See docs/decisions.md §1 for the equations.
+
+    Note on damage: for ``alpha != 1`` the paper's damage increment depends on the step size.
+    """
+
+    def __init__(self, cohesive: CohesiveParams, contact: ContactParams | None = None,
+                 friction: FrictionParams | None = None, damage: DamageParams | None = None,
+                 parallel: bool | None = None):
+        if not isinstance(cohesive, CohesiveParams):
+            raise ValueError(f"InterfaceLaw.cohesive = {cohesive!r} is not allowed; allowed: "
+                             "a CohesiveParams")
+        for name, val, typ in (("contact", contact, ContactParams),
+                               ("friction", friction, FrictionParams),
+                               ("damage", damage, DamageParams)):
+            if val is not None and not isinstance(val, typ):
+                raise ValueError(f"InterfaceLaw.{name} = {val!r} is not allowed; allowed: "
+                                 f"None or a {typ.__name__}")
+        if friction is not None and contact is None:
+            raise ValueError("InterfaceLaw.friction is set but contact = None; allowed: "
+                             "friction only with a ContactParams (friction needs F_N < 0)")
+        self.cohesive = cohesive
+        self.contact = contact
+        self.friction = friction
+        self.damage = damage
+        self.parallel = parallel
+        self._coh = cohesive.as_array()
+        self._con = None if contact is None else contact.as_array(cohesive)
+        self._fri = None if friction is None else friction.as_array(cohesive)
+        self._dmg = None if damage is None else damage.as_array(cohesive)
+
+    def __repr__(self):
+        return (f"InterfaceLaw({self.cohesive}, contact={self.contact}, "
+                f"friction={self.friction}, damage={self.damage})")
+
+    def with_params(self, cohesive: CohesiveParams | None = None,
+                    friction: FrictionParams | None = None) -> "InterfaceLaw":
+        """The same law with new cohesive and/or friction parameters (size-scale update)."""
+        return InterfaceLaw(cohesive or self.cohesive, self.contact,
+                            friction or self.friction, self.damage, self.parallel)
+
+    # ------------------------------------------------------------------------------------
+    @staticmethod
+    def initial_state(n: int, dim: int = 2) -> InterfaceState:
+        if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 0:
+            raise ValueError(f"initial_state n = {n!r} is not allowed; allowed: an integer >= 0")
+        if dim not in (2, 3):
+            raise ValueError(f"initial_state dim = {dim!r} is not allowed; allowed: 2 or 3")
+        z = np.zeros(n)
+        return InterfaceState(z, z.copy(), z.copy(), np.zeros((n, dim - 1)), z.copy())
+
+    def _check(self, gap, state: InterfaceState):
+        if not isinstance(gap, np.ndarray) or gap.dtype != np.float64 or gap.ndim != 2 \
+                or gap.shape[1] not in (2, 3):
+            desc = (f"array of dtype {gap.dtype} and shape {gap.shape}"
+                    if isinstance(gap, np.ndarray) else type(gap).__name__)
+            raise ValueError(f"evaluate gap: {desc} is not allowed; allowed: a float64 array "
+                             "of shape (n, 2) or (n, 3)")
+        if not isinstance(state, InterfaceState):
+            raise ValueError(f"evaluate state = {type(state).__name__} is not allowed; allowed: "
+                             "an InterfaceState (law.initial_state)")
+        n, dim = gap.shape
+        if state.n != n or state.dim != dim:
+            raise ValueError(f"evaluate state: {state.n} points in {state.dim}D do not match "
+                             f"gap of shape {gap.shape}; allowed: the same n and dim")
+        finite = np.isfinite(gap).all(axis=1)
+        if not finite.all():
+            i = int(np.flatnonzero(~finite)[0])
+            raise ValueError(f"evaluate gap[{i}] = {gap[i].tolist()} is not finite; allowed: "
+                             "finite values (first bad point shown)")
+
+    def evaluate(self, gap: np.ndarray, state: InterfaceState, out=None, check: bool = True):
+        """Traction, consistent tangent and end-of-step state for the total gap ``gap``.
+
+        gap   : float64 (n, dim), dim 2 (g_N, g_T) or 3 (g_N, g_T1, g_T2); total gap at the end
+                of the step, opening positive.
+        state : the committed start-of-step state (not modified).
+        out   : optional (traction (n,dim), tangent (n,dim,dim), InterfaceState) buffers,
+                overwritten; they must not be ``state``'s arrays.
+        Returns ``traction, tangent, new_state`` with ``tangent[i] = d traction[i] / d gap[i]``.
+        """
+        if check:
+            self._check(gap, state)
+        n, dim = gap.shape
+        if out is None:
+            F = np.empty((n, dim))
+            T = np.zeros((n, dim, dim))
+            new = InterfaceState(np.empty(n), np.empty(n), np.empty(n),
+                                 state.slip if self.friction is None else np.empty((n, dim - 1)),
+                                 np.empty(n))
+        else:
+            F, T, new = out
+            if self.friction is None:
+                new.slip[...] = state.slip
+        par = self.parallel if self.parallel is not None else n >= PARALLEL_MIN_POINTS
+        kern = _kernels.evaluate_parallel if par else _kernels.evaluate_serial
+        kern(gap, self._coh, self._con, self._fri, self._dmg,
+             state.kappa, state.damage, state.separation, state.slip, state.dissipated,
+             F, T, new.kappa, new.damage, new.separation, new.slip, new.dissipated)
+        return F, T, new
+
+    def traction(self, gap, state):
+        """Traction only (convenience)."""
+        return self.evaluate(gap, state)[0]

@@ -1,0 +1,337 @@
+"""Geometry and meshes of the Koyna dam on its rock foundation (issue #5).
+
+Coordinates: x downstream from the heel, y up, metres.  The dam-rock contact line
+(0,0)-(70,0) is an internal boundary named ``"interface"``; the regions are ``"dam"``
+and ``"rock"``.
+
+Boundary names
+    dam:  "upstream" (x=0), "downstream" (two segments, toe -> slope break -> crest),
+          "crest" (y=103), "interface" (base).
+    rock: "rock_top_up" (upstream of the heel), "rock_top_down" (downstream of the toe),
+          "rock_left", "rock_right", "rock_bottom".
+    non-matching meshes only: "interface_rock" (the rock side of the interface; the dam
+          side keeps the name "interface").
+
+Meshes are graded from ``h_heel`` at the heel (0, 0) to ``h_coarse`` elsewhere.  Netgen's
+2D mesher takes local sizes on points and edges and grades with the ``grading`` factor;
+the heel refinement is a point size plus a chain of points along the interface whose
+local sizes grow geometrically (``growth``), which makes the interface element size a
+controlled function of the distance to the heel: h(d) = min(h_heel + (growth-1) d, h_int)
+(see ``interface_size``).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+# Standard Koyna non-overflow section (Chopra & Chakrabarti 1973), counter-clockwise.
+KOYNA_DAM = ((0.0, 0.0), (70.0, 0.0), (19.25, 66.5), (14.8, 103.0), (0.0, 103.0))
+BASE_WIDTH = 70.0
+DAM_HEIGHT = 103.0
+HEEL = (0.0, 0.0)
+CREST_UPSTREAM = (0.0, 103.0)
+
+
+def polygon_area(pts) -> float:
+    """Shoelace area of a simple polygon (positive for counter-clockwise)."""
+    p = np.asarray(pts, dtype=float)
+    x, y = p[:, 0], p[:, 1]
+    return 0.5 * float(np.dot(x, np.roll(y, -1)) - np.dot(np.roll(x, -1), y))
+
+
+def polygon_centroid(pts) -> tuple[float, float]:
+    p = np.asarray(pts, dtype=float)
+    x, y = p[:, 0], p[:, 1]
+    xn, yn = np.roll(x, -1), np.roll(y, -1)
+    c = x * yn - xn * y
+    a = 0.5 * c.sum()
+    return float(((x + xn) * c).sum() / (6 * a)), float(((y + yn) * c).sum() / (6 * a))
+
+
+@dataclass(frozen=True)
+class MeshInfo:
+    """What was meshed (kept on the Model for summaries)."""
+
+    foundation: str
+    matching: bool
+    h_heel: float
+    h_coarse: float
+    h_interface: float
+    growth: float
+    extent_up: float
+    extent_down: float
+    extent_depth: float
+    n_vertices: int
+    n_elements: int
+    n_interface_segments: int
+    h_interface_rock: float | None = None
+    heel_zone: float = 0.0
+
+
+def interface_size(d: float, h_heel: float, h_int: float, growth: float,
+                   heel_zone: float = 0.0) -> float:
+    """Target element size along the interface at distance d from the heel: h_heel on
+    the first ``heel_zone`` metres, then growing linearly with slope (growth - 1)
+    (element-to-element ratio ~ growth) up to h_int."""
+    return min(h_heel + (growth - 1.0) * max(d - heel_zone, 0.0), h_int)
+
+
+def _interface_stations(x0: float, x1: float, h_heel: float, h_int: float,
+                        growth: float, heel_at_start: bool = True,
+                        heel_zone: float = 0.0) -> list[tuple[float, float]]:
+    """Stations (x, local h) along [x0, x1] with sizes graded from the heel.
+
+    The stations are spaced so that each gap equals the local target size: points are
+    inserted at x_{k+1} = x_k + h(x_k).  Between stations netgen meshes the edge with the
+    edge maxh, so the stations themselves need not be nodes of any special kind.  To keep
+    the number of spline segments small the chain stops once h reaches h_int."""
+    L = x1 - x0
+    st = [(0.0, h_heel)]
+    d = 0.0
+    while True:
+        h = interface_size(d, h_heel, h_int, growth, heel_zone)
+        if h >= h_int or d + h >= L - 1e-9:
+            break
+        # space the geometry points sparser than the elements (every ~4 elements, at
+        # most 0.5 m inside the uniform heel zone so that it is really uniform)
+        step = 4.0 * h if d >= heel_zone else min(4.0 * h, 0.5, heel_zone - d + 1e-12)
+        d = d + step
+        if d >= L - 1e-9:
+            break
+        st.append((d, interface_size(d, h_heel, h_int, growth, heel_zone)))
+    if heel_at_start:
+        return [(x0 + s, h) for s, h in st]
+    return [(x1 - s, h) for s, h in st]
+
+
+def _add_poly(geo, pts_h, leftdomain, rightdomain, bcs, maxhs):
+    """Append a polygon chain; pts_h is a list of point indices."""
+    n = len(pts_h)
+    for i in range(n):
+        geo.Append(["line", pts_h[i], pts_h[(i + 1) % n]], leftdomain=leftdomain,
+                   rightdomain=rightdomain, bc=bcs[i], maxh=maxhs[i])
+
+
+def koyna_mesh(foundation: str = "rock", h_heel: float = 0.1, h_coarse: float = 4.0,
+               h_interface: float | None = None, growth: float = 1.25,
+               extent_up: float = 1.0, extent_down: float = 1.0, extent_depth: float = 1.0,
+               grading: float = 0.25, matching: bool = True,
+               h_heel_rock: float | None = None, h_interface_rock: float | None = None,
+               heel_zone: float = 2.0, reservoir_level: float | None = None):
+    """Netgen mesh of the Koyna dam (region "dam") and, for foundation="rock", its rock
+    block (region "rock") of extent ``extent_* x 70 m`` upstream, downstream and below.
+
+    ``h_interface`` (default ``h_coarse/2``) is the element size along the interface away
+    from the heel.  With ``matching=False`` dam and rock are meshed separately (rock with
+    ``h_heel_rock``/``h_interface_rock``, default 1.7x the dam values so that no interface
+    node coincides except the ends) and merged into one mesh whose rock-side interface is
+    named "interface_rock"; the two regions then share no vertex.
+    Returns an ``ngsolve.Mesh`` and a ``MeshInfo``.
+    """
+    import ngsolve as ngs
+
+    if foundation not in ("rock", "rigid"):
+        raise ValueError(f"foundation={foundation!r}: allowed 'rock' or 'rigid'")
+    h_int = h_coarse / 2.0 if h_interface is None else h_interface
+    if foundation == "rigid" or matching:
+        ngmesh = _koyna_single(foundation, h_heel, h_coarse, h_int, growth, extent_up,
+                               extent_down, extent_depth, grading, heel_zone, reservoir_level)
+        h_int_r = None
+    else:
+        hh_r = 1.7 * h_heel if h_heel_rock is None else h_heel_rock
+        h_int_r = 1.7 * h_int if h_interface_rock is None else h_interface_rock
+        dam = _koyna_single("rigid", h_heel, h_coarse, h_int, growth, extent_up,
+                            extent_down, extent_depth, grading, heel_zone, reservoir_level)
+        rock = _rock_only(hh_r, h_coarse, h_int_r, growth, extent_up, extent_down,
+                          extent_depth, grading, heel_zone)
+        ngmesh = merge_meshes(dam, rock)
+    mesh = ngs.Mesh(ngmesh)
+    nseg = sum(1 for el in mesh.Boundaries("interface").Elements())
+    info = MeshInfo(foundation, bool(matching or foundation == "rigid"), h_heel, h_coarse,
+                    h_int, growth, extent_up, extent_down, extent_depth, mesh.nv, mesh.ne,
+                    nseg, h_int_r, heel_zone)
+    return mesh, info
+
+
+def _koyna_single(foundation, h_heel, h_coarse, h_int, growth, eu, ed, edep, grading,
+                  heel_zone=0.0, reservoir_level=None):
+    from netgen.geom2d import SplineGeometry
+
+    geo = SplineGeometry()
+    W = BASE_WIDTH
+    big = 1e99
+    # interface stations from heel (0,0) towards the toe (70,0)
+    st = _interface_stations(0.0, W, h_heel, h_int, growth, heel_zone=heel_zone)
+    ip = [geo.AppendPoint(x, 0.0, maxh=h) for x, h in st]
+    toe = geo.AppendPoint(W, 0.0, maxh=h_int)
+    ds1 = geo.AppendPoint(*KOYNA_DAM[2])
+    ds2 = geo.AppendPoint(*KOYNA_DAM[3])
+    top = geo.AppendPoint(*KOYNA_DAM[4])
+    # upstream face: stations above the heel, graded the same way
+    sv = _interface_stations(0.0, DAM_HEIGHT, h_heel, h_coarse, growth)
+    if reservoir_level is not None and 0.0 < reservoir_level < DAM_HEIGHT:
+        # a vertex at the water line: the hydrostatic pressure is then linear on every
+        # upstream edge and its integral exact
+        H = float(reservoir_level)
+        if min(abs(y - H) for y, _ in sv) > 1e-9:
+            sv = sorted(sv + [(H, interface_size(H, h_heel, h_coarse, growth))])
+    up = [geo.AppendPoint(0.0, y, maxh=h) for y, h in sv[1:]]
+    dam, rock = 1, 2
+    rd = rock if foundation == "rock" else 0
+    chain = ip + [toe]
+    for a, b, (x, h) in zip(chain[:-1], chain[1:], st):
+        geo.Append(["line", a, b], leftdomain=dam, rightdomain=rd, bc="interface",
+                   maxh=h_int)
+    geo.Append(["line", toe, ds1], leftdomain=dam, rightdomain=0, bc="downstream")
+    geo.Append(["line", ds1, ds2], leftdomain=dam, rightdomain=0, bc="downstream")
+    geo.Append(["line", ds2, top], leftdomain=dam, rightdomain=0, bc="crest")
+    vchain = [top] + up[::-1] + [ip[0]]
+    for a, b in zip(vchain[:-1], vchain[1:]):
+        geo.Append(["line", a, b], leftdomain=dam, rightdomain=0, bc="upstream")
+    geo.SetMaterial(dam, "dam")
+    if foundation == "rock":
+        xl, xr, yb = -eu * W, W + ed * W, -edep * W
+        # rock top upstream, graded away from the heel
+        su = _interface_stations(xl, 0.0, h_heel, h_coarse, growth, heel_at_start=False)
+        upt = [geo.AppendPoint(x, 0.0, maxh=h) for x, h in su[1:]]
+        pl_top = geo.AppendPoint(xl, 0.0)
+        pr_top = geo.AppendPoint(xr, 0.0)
+        pbl = geo.AppendPoint(xl, yb)
+        pbr = geo.AppendPoint(xr, yb)
+        # rock boundary (rock = left domain, counter-clockwise): bottom, right, top-down
+        geo.Append(["line", pbl, pbr], leftdomain=rock, rightdomain=0, bc="rock_bottom")
+        geo.Append(["line", pbr, pr_top], leftdomain=rock, rightdomain=0, bc="rock_right")
+        geo.Append(["line", pr_top, toe], leftdomain=rock, rightdomain=0, bc="rock_top_down")
+        tchain = [ip[0]] + upt + [pl_top]
+        for a, b in zip(tchain[:-1], tchain[1:]):
+            geo.Append(["line", a, b], leftdomain=rock, rightdomain=0, bc="rock_top_up")
+        geo.Append(["line", pl_top, pbl], leftdomain=rock, rightdomain=0, bc="rock_left")
+        geo.SetMaterial(rock, "rock")
+    return geo.GenerateMesh(maxh=h_coarse, grading=grading)
+
+
+def _rock_only(h_heel, h_coarse, h_int, growth, eu, ed, edep, grading, heel_zone=0.0):
+    from netgen.geom2d import SplineGeometry
+
+    geo = SplineGeometry()
+    W = BASE_WIDTH
+    xl, xr, yb = -eu * W, W + ed * W, -edep * W
+    st = _interface_stations(0.0, W, h_heel, h_int, growth, heel_zone=heel_zone)
+    ip = [geo.AppendPoint(x, 0.0, maxh=h) for x, h in st]
+    toe = geo.AppendPoint(W, 0.0, maxh=h_int)
+    su = _interface_stations(xl, 0.0, h_heel, h_coarse, growth, heel_at_start=False)
+    upt = [geo.AppendPoint(x, 0.0, maxh=h) for x, h in su[1:]]
+    pl_top = geo.AppendPoint(xl, 0.0)
+    pr_top = geo.AppendPoint(xr, 0.0)
+    pbl = geo.AppendPoint(xl, yb)
+    pbr = geo.AppendPoint(xr, yb)
+    rock = 1
+    geo.Append(["line", pbl, pbr], leftdomain=rock, rightdomain=0, bc="rock_bottom")
+    geo.Append(["line", pbr, pr_top], leftdomain=rock, rightdomain=0, bc="rock_right")
+    geo.Append(["line", pr_top, toe], leftdomain=rock, rightdomain=0, bc="rock_top_down")
+    chain = ip + [toe]
+    # rock lies below the interface: going toe -> heel keeps rock on the left
+    for a, b in zip(chain[::-1][:-1], chain[::-1][1:]):
+        geo.Append(["line", a, b], leftdomain=rock, rightdomain=0, bc="interface_rock",
+                   maxh=h_int)
+    tchain = [ip[0]] + upt + [pl_top]
+    for a, b in zip(tchain[:-1], tchain[1:]):
+        geo.Append(["line", a, b], leftdomain=rock, rightdomain=0, bc="rock_top_up")
+    geo.Append(["line", pl_top, pbl], leftdomain=rock, rightdomain=0, bc="rock_left")
+    geo.SetMaterial(rock, "rock")
+    return geo.GenerateMesh(maxh=h_coarse, grading=grading)
+
+
+def merge_meshes(*ngmeshes):
+    """Merge 2D netgen meshes into one netgen mesh WITHOUT identifying coincident
+    vertices (regions and boundary names are merged by name).  Used for non-matching
+    interfaces: the parts share no vertex, each keeps its own interface segments."""
+    from netgen.meshing import Mesh, MeshPoint, Element2D, Element1D, FaceDescriptor
+    from netgen.csg import Pnt
+
+    out = Mesh(dim=2)
+    mats: dict[str, int] = {}
+    bcs: dict[str, int] = {}
+    for m in ngmeshes:
+        pmap = {}
+        for i, p in enumerate(m.Points()):
+            pmap[i + 1] = out.Add(MeshPoint(Pnt(p[0], p[1], 0.0)))
+        # regions
+        local_mat = {}
+        for idx in range(1, 1000):
+            try:
+                name = m.GetMaterial(idx)
+            except Exception:
+                break
+            if not name:
+                break
+            if name not in mats:
+                fd = out.Add(FaceDescriptor(bc=len(mats) + 1))
+                mats[name] = fd
+                out.SetMaterial(fd, name)
+            local_mat[idx] = mats[name]
+        for el in m.Elements2D():
+            vs = [pmap[v.nr] for v in el.vertices]
+            out.Add(Element2D(local_mat[el.index], vs))
+        for el in m.Elements1D():
+            name = m.GetBCName(el.index - 1)
+            if name not in bcs:
+                bcs[name] = len(bcs) + 1
+                out.SetBCName(bcs[name] - 1, name)
+            vs = [pmap[v.nr] for v in el.vertices]
+            out.Add(Element1D(vs, index=bcs[name]))
+    return out
+
+
+def two_block_mesh(width: float = 1.0, h_top: float = 0.5, h_bot: float = 0.5,
+                   n_top: int = 4, n_bot: int = 3, structured: bool = True):
+    """Rectangle ("dam", [0,width]x[0,h_top]) on a rectangle ("rock",
+    [0,width]x[-h_bot,0]) with NON-matching interface node spacing: n_top interface
+    segments on the dam side, n_bot on the rock side.  Dam-side interface boundary
+    "interface", rock side "interface_rock"; other boundaries: dam "upstream" (x=0),
+    "downstream" (x=width), "crest" (top); rock "rock_left", "rock_right",
+    "rock_bottom".  Structured triangles (two per quad) so that the patch test is
+    independent of netgen.  Pass n_top == n_bot for a matching (but still duplicated
+    node) interface.  Returns an ``ngsolve.Mesh``."""
+    import ngsolve as ngs
+    from netgen.meshing import Mesh, MeshPoint, Element2D, Element1D, FaceDescriptor
+    from netgen.csg import Pnt
+
+    out = Mesh(dim=2)
+    bc_names = ["interface", "upstream", "downstream", "crest", "interface_rock",
+                "rock_left", "rock_right", "rock_bottom"]
+    for i, n in enumerate(bc_names):
+        out.SetBCName(i, n)
+    bcid = {n: i + 1 for i, n in enumerate(bc_names)}
+    for k, name in enumerate(("dam", "rock")):
+        out.Add(FaceDescriptor(bc=k + 1))
+        out.SetMaterial(k + 1, name)
+
+    def block(x0, x1, y0, y1, nx, ny, matidx, names):
+        # names: bottom, right, top, left
+        P = {}
+        for j in range(ny + 1):
+            for i in range(nx + 1):
+                P[i, j] = out.Add(MeshPoint(Pnt(x0 + (x1 - x0) * i / nx,
+                                                y0 + (y1 - y0) * j / ny, 0.0)))
+        for j in range(ny):
+            for i in range(nx):
+                a, b, c, d = P[i, j], P[i + 1, j], P[i + 1, j + 1], P[i, j + 1]
+                out.Add(Element2D(matidx, [a, b, c]))
+                out.Add(Element2D(matidx, [a, c, d]))
+        for i in range(nx):
+            out.Add(Element1D([P[i, 0], P[i + 1, 0]], index=bcid[names[0]]))
+            out.Add(Element1D([P[i + 1, ny], P[i, ny]], index=bcid[names[2]]))
+        for j in range(ny):
+            out.Add(Element1D([P[nx, j], P[nx, j + 1]], index=bcid[names[1]]))
+            out.Add(Element1D([P[0, j + 1], P[0, j]], index=bcid[names[3]]))
+
+    ny_t = max(1, round(n_top * h_top / width))
+    ny_b = max(1, round(n_bot * h_bot / width))
+    block(0.0, width, 0.0, h_top, n_top, ny_t, 1,
+          ("interface", "downstream", "crest", "upstream"))
+    block(0.0, width, -h_bot, 0.0, n_bot, ny_b, 2,
+          ("rock_bottom", "rock_right", "interface_rock", "rock_left"))
+    return ngs.Mesh(out)

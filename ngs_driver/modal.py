@@ -1,0 +1,107 @@
+"""Modal analysis with the interface bonded, and Rayleigh damping coefficients.
+
+The bonded interface is the linear spring layer B^T diag(w k0) B with the initial elastic
+stiffness of the interface law; for the paper's law k0 = sigma_max / (lambda_max l_Nc),
+l_Nc = 2 G_I / sigma_max (``paper_k0``).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import dataclass, asdict
+from pathlib import Path
+
+import numpy as np
+import scipy.sparse.linalg as sla
+
+
+def paper_k0(sigma_max: float = 3e6, tau_max: float = 3e6, G_I: float = 250.0,
+             lambda_max: float = 0.2, ratio_lTc_lNc: float = 1.0) -> tuple[float, float]:
+    """Initial (bonded) stiffness [Pa/m] (normal, tangential) of the paper's law:
+    k_N = sigma_max/(lambda_max l_Nc), k_T = tau_max l_Nc/(lambda_max l_Tc^2),
+    l_Nc = 2 G_I/sigma_max, l_Tc = ratio l_Nc (docs/decisions.md §1.1).
+    Paper values: 3e6 / (0.2 * 1.667e-4) = 9.0e10 Pa/m."""
+    l_nc = 2.0 * G_I / sigma_max
+    l_tc = ratio_lTc_lNc * l_nc
+    return sigma_max / (lambda_max * l_nc), tau_max * l_nc / (lambda_max * l_tc ** 2)
+
+
+@dataclass
+class ModalResult:
+    frequencies_hz: np.ndarray     # (n,)
+    modes: np.ndarray              # (nfree, n), M-orthonormal
+    k0_normal: float
+    k0_tangential: float
+    effective_mass_x: np.ndarray   # (n,) modal participating mass, x [kg/m]
+    effective_mass_y: np.ndarray
+
+    def to_dict(self) -> dict:
+        return {"frequencies_hz": [float(f) for f in self.frequencies_hz],
+                "periods_s": [float(1 / f) for f in self.frequencies_hz],
+                "k0_normal": self.k0_normal, "k0_tangential": self.k0_tangential,
+                "effective_mass_x_kg_per_m": [float(v) for v in self.effective_mass_x],
+                "effective_mass_y_kg_per_m": [float(v) for v in self.effective_mass_y]}
+
+
+def modal_analysis(model, n_modes: int = 6, k0_normal: float = 9.0e10,
+                   k0_tangential: float = 9.0e10) -> ModalResult:
+    """First ``n_modes`` natural frequencies [Hz] and M-normalised mode shapes of
+    (K + B^T diag(w k0) B) phi = omega^2 M phi  (shift-invert Lanczos at sigma = 0)."""
+    Kb = (model.K + model.interface.stiffness(k0_normal, k0_tangential)).tocsc()
+    M = model.M.tocsc()
+    lam, V = sla.eigsh(Kb, k=n_modes, M=M, sigma=0.0, which="LM")
+    idx = np.argsort(lam)
+    lam, V = lam[idx], V[:, idx]
+    # normalise: phi^T M phi = 1, sign so that the crest x-displacement is >= 0
+    V = V / np.sqrt(np.einsum("ij,ij->j", V, M @ V))
+    ix = model.crest_dofs[0]
+    V = V * np.where(V[ix] < 0, -1.0, 1.0)
+    f = np.sqrt(np.maximum(lam, 0.0)) / (2 * math.pi)
+    Lx = V.T @ (M @ model.r_x)
+    Ly = V.T @ (M @ model.r_y)
+    return ModalResult(f, V, float(k0_normal), float(k0_tangential), Lx ** 2, Ly ** 2)
+
+
+def rayleigh_coefficients(f_a: float, f_b: float, ratio: float = 0.05) -> tuple[float, float]:
+    """(a0, a1) of C = a0 M + a1 K giving ``ratio`` of critical damping at f_a and f_b
+    [Hz]: a0 = 2 zeta w_a w_b/(w_a + w_b), a1 = 2 zeta/(w_a + w_b) (Chopra, Dynamics of
+    Structures, §11.4)."""
+    if not (f_a > 0 and f_b > 0) or f_a == f_b:
+        raise ValueError(f"Rayleigh frequencies must be positive and distinct: {f_a}, {f_b}")
+    wa, wb = 2 * math.pi * f_a, 2 * math.pi * f_b
+    return 2 * ratio * wa * wb / (wa + wb), 2 * ratio / (wa + wb)
+
+
+def rayleigh_ratio(f: np.ndarray, a0: float, a1: float) -> np.ndarray:
+    """Damping ratio of a Rayleigh model at frequency f [Hz]."""
+    w = 2 * math.pi * np.asarray(f, float)
+    return a0 / (2 * w) + a1 * w / 2
+
+
+def damping_from_modes(res: ModalResult, ratio: float = 0.05, modes=(1, 3),
+                       frequencies=None) -> dict:
+    """Rayleigh coefficients at the given 1-based mode numbers (default modes 1 and 3) or
+    at explicit ``frequencies`` [Hz]."""
+    if frequencies:
+        fa, fb = (float(v) for v in frequencies)
+        src = "frequencies"
+    else:
+        fa, fb = (float(res.frequencies_hz[m - 1]) for m in modes)
+        src = f"modes {tuple(modes)}"
+    a0, a1 = rayleigh_coefficients(fa, fb, ratio)
+    return {"a0": a0, "a1": a1, "ratio": ratio, "f_a": fa, "f_b": fb, "source": src,
+            "ratio_at_modes": [float(z) for z in rayleigh_ratio(res.frequencies_hz, a0, a1)]}
+
+
+def write_modal_json(path, res: ModalResult, damping: dict | None = None,
+                     extra: dict | None = None) -> Path:
+    d = res.to_dict()
+    if damping is not None:
+        d["rayleigh"] = damping
+    if extra:
+        d.update(extra)
+    p = Path(path)
+    p.parent.mkdir(parents=True, exist_ok=True)
+    p.write_text(json.dumps(d, indent=2))
+    return p
