@@ -114,12 +114,12 @@ def _add_poly(geo, pts_h, leftdomain, rightdomain, bcs, maxhs):
                    rightdomain=rightdomain, bc=bcs[i], maxh=maxhs[i])
 
 
-def koyna_mesh(foundation: str = "rock", h_heel: float = 0.1, h_coarse: float = 4.0,
-               h_interface: float | None = None, growth: float = 1.25,
+def koyna_mesh(foundation: str = "rock", h_heel: float = 0.1, h_coarse: float = 2.0,
+               h_interface: float | None = 1.0, growth: float = 1.15,
                extent_up: float = 1.0, extent_down: float = 1.0, extent_depth: float = 1.0,
                grading: float = 0.25, matching: bool = True,
                h_heel_rock: float | None = None, h_interface_rock: float | None = None,
-               heel_zone: float = 2.0, reservoir_level: float | None = None):
+               heel_zone: float = 5.0, reservoir_level: float | None = None):
     """Netgen mesh of the Koyna dam (region "dam") and, for foundation="rock", its rock
     block (region "rock") of extent ``extent_* x 70 m`` upstream, downstream and below.
 

@@ -105,3 +105,48 @@ def write_modal_json(path, res: ModalResult, damping: dict | None = None,
     p.parent.mkdir(parents=True, exist_ok=True)
     p.write_text(json.dumps(d, indent=2))
     return p
+
+
+def k0_from_scene(scene) -> tuple[float, float]:
+    i = scene.interface
+    return paper_k0(i.sigma_max, i.tau_max, i.G_I, i.lambda_max, i.ratio_lTc_lNc)
+
+
+def run_modal(scene, out_dir=None, n_modes: int = 6, model=None):
+    """Build the scene's model, run the modal analysis, write ``modal.json`` to out_dir
+    (default: scene.output.dir).  Returns (model, ModalResult, damping dict)."""
+    from .model import build_from_scene
+
+    md = model if model is not None else build_from_scene(scene)
+    kn, kt = k0_from_scene(scene)
+    res = modal_analysis(md, n_modes, kn, kt)
+    d = scene.damping
+    damp = damping_from_modes(res, d.ratio, d.modes, d.frequencies or None)
+    out = Path(out_dir if out_dir is not None else scene.output.dir)
+    write_modal_json(out / "modal.json", res, damp,
+                     {"scene": scene.name, "nfree": md.nfree})
+    return md, res, damp
+
+
+def main(argv=None):
+    """python -m ngs_driver.modal [scene] [--set a.b=v ...] [--out DIR]"""
+    import argparse
+
+    from .scene import load_scene
+
+    ap = argparse.ArgumentParser(description="modal analysis of a scene (bonded interface)")
+    ap.add_argument("scene", nargs="?", default="koyna")
+    ap.add_argument("--set", action="append", default=[], dest="overrides")
+    ap.add_argument("--out", default=None)
+    ap.add_argument("-n", type=int, default=6)
+    a = ap.parse_args(argv)
+    sc = load_scene(a.scene, a.overrides)
+    md, res, damp = run_modal(sc, a.out, a.n)
+    print(f"scene {sc.name}: nfree {md.nfree}, interface points {md.interface.npts}")
+    print("frequencies [Hz]:", " ".join(f"{f:.4f}" for f in res.frequencies_hz))
+    print(f"Rayleigh a0 = {damp['a0']:.6g} 1/s, a1 = {damp['a1']:.6g} s "
+          f"({damp['source']}: {damp['f_a']:.3f}, {damp['f_b']:.3f} Hz)")
+
+
+if __name__ == "__main__":
+    main()

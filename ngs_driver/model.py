@@ -552,3 +552,10 @@ def _rock_nts(mesh, fes, Vd, Vr, xs, ys, normal, tangent) -> sp.csr_matrix:
                         cols.append(col)
                         vals.append(-N[a] * e[comp])
     return sp.csr_matrix((vals, (rows, cols)), shape=(2 * npts, fes.ndof))
+
+
+def build_from_scene(scene, **overrides) -> Model:
+    """``build_model`` with the keyword arguments of a ``scene.Scene`` (overridable)."""
+    kw = scene.model_kwargs()
+    kw.update(overrides)
+    return build_model(**kw)

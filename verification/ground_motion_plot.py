@@ -34,7 +34,7 @@ def main(argv=None) -> Path:
 
     gm = load_default()
     v, d = gm.integrate()
-    periods = np.geomspace(0.02, 3.0, 20 if args.fast else 120)
+    periods = np.geomspace(0.05, 3.0, 15) if args.fast else np.geomspace(0.02, 3.0, 120)
     sa_x = response_spectrum(gm.ax, gm.dt, periods, 0.05) / G
     sa_y = response_spectrum(gm.ay, gm.dt, periods, 0.05) / G
 
@@ -66,7 +66,7 @@ def main(argv=None) -> Path:
 
     out = Path(args.out)
     out.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(out, dpi=60 if args.fast else 120)
+    fig.savefig(out, dpi=50 if args.fast else 120)
     plt.close(fig)
 
     t5x, t95x = significant_duration(gm.ax, gm.dt)

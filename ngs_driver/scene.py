@@ -1,0 +1,358 @@
+"""Scene files (TOML): loading by name or path, ``--set a.b.c=value`` overrides, validation.
+
+A scene is a nested frozen dataclass ``Scene`` (sections below); ``Scene.to_dict()`` gives
+the plain dict for summary.json.  Every key of a section has a type and, where it can be
+stated, an allowed range or set of choices (field metadata).  Unknown keys, wrong types and
+out-of-range values raise one ``ValueError`` naming the key, the value and what is allowed.
+Missing keys take the defaults below (the paper's values, §5).
+
+Shipped scenes live in ``ngs_driver/scenes/<name>.toml``.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import tomllib
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, get_type_hints
+
+SCENE_DIR = Path(__file__).with_name("scenes")
+
+
+def _f(default, lo=None, hi=None, lo_open=False, hi_open=False, choices=None, doc=""):
+    md = {"lo": lo, "hi": hi, "lo_open": lo_open, "hi_open": hi_open, "choices": choices,
+          "doc": doc}
+    if isinstance(default, (list, tuple)):
+        return field(default_factory=lambda d=tuple(default): d, metadata=md)
+    return field(default=default, metadata=md)
+
+
+@dataclass(frozen=True)
+class Geometry:
+    foundation: str = _f("rock", choices=("rock", "rigid"))
+    extent_up: float = _f(1.0, lo=0.1, hi=10.0, doc="rock extent upstream / 70 m")
+    extent_down: float = _f(1.0, lo=0.1, hi=10.0, doc="rock extent downstream / 70 m")
+    extent_depth: float = _f(1.0, lo=0.1, hi=10.0, doc="rock depth / 70 m")
+    rock_sides: str = _f("fixed", choices=("fixed", "roller", "free"))
+    matching: bool = _f(True, doc="False: dam and rock meshed separately (node-to-segment)")
+
+
+@dataclass(frozen=True)
+class Mesh:
+    h_heel: float = _f(0.1, lo=0.0, hi=10.0, lo_open=True)
+    h_coarse: float = _f(2.0, lo=0.0, hi=50.0, lo_open=True)
+    h_interface: float = _f(1.0, lo=0.0, hi=50.0, lo_open=True)
+    heel_zone: float = _f(5.0, lo=0.0, hi=70.0)
+    growth: float = _f(1.15, lo=1.0, hi=3.0, lo_open=True)
+    grading: float = _f(0.25, lo=0.05, hi=1.0)
+    order: int = _f(1, lo=1, hi=4)
+    gauss_points: int = _f(3, lo=1, hi=10)
+    lumped_mass: bool = _f(False)
+
+
+@dataclass(frozen=True)
+class Material:
+    E: float = _f(50e9, lo=0.0, hi=1e13, lo_open=True)
+    nu: float = _f(0.2, lo=0.0, hi=0.5, hi_open=True)
+    rho: float = _f(2500.0, lo=0.0, hi=1e5, lo_open=True)
+
+
+@dataclass(frozen=True)
+class Materials:
+    dam: Material = field(default_factory=lambda: Material(50e9, 0.2, 2500.0))
+    rock: Material = field(default_factory=lambda: Material(50e9, 0.2, 2800.0))
+
+
+@dataclass(frozen=True)
+class Loads:
+    gravity: float = _f(9.81, lo=0.0, hi=100.0)
+    reservoir_level: float = _f(92.0, lo=0.0, hi=103.0)
+    water_density: float = _f(1000.0, lo=0.0, hi=5000.0)
+    rock_weight: bool = _f(False, doc="apply the rock self weight too")
+
+
+@dataclass(frozen=True)
+class GroundMotion:
+    record: str = _f("koyna1967")
+    scale: float = _f(1.0, lo=0.0, hi=100.0)
+    components: tuple = _f(("x", "y"), choices=("x", "y"))
+    start: float = _f(0.0, lo=0.0, hi=1e4, doc="record time at which the analysis starts")
+
+
+@dataclass(frozen=True)
+class Time:
+    dt: float = _f(0.002, lo=0.0, hi=1.0, lo_open=True)
+    duration: float = _f(10.0, lo=0.0, hi=1e4, lo_open=True)
+    newmark_beta: float = _f(0.25, lo=0.0, hi=0.5)
+    newmark_gamma: float = _f(0.5, lo=0.5, hi=1.0)
+
+
+@dataclass(frozen=True)
+class Damping:
+    ratio: float = _f(0.05, lo=0.0, hi=1.0)
+    modes: tuple = _f((1, 3), lo=1, hi=50, doc="1-based mode numbers for Rayleigh")
+    frequencies: tuple = _f((), lo=0.0, hi=1e4, lo_open=True,
+                            doc="two frequencies [Hz]; empty: use `modes`")
+
+
+@dataclass(frozen=True)
+class Interface:
+    sigma_max: float = _f(3.0e6, lo=0.0, hi=1e9, lo_open=True)
+    tau_max: float = _f(3.0e6, lo=0.0, hi=1e9, lo_open=True)
+    G_I: float = _f(250.0, lo=0.0, hi=1e6, lo_open=True)
+    lambda_max: float = _f(0.2, lo=0.0, hi=1.0, lo_open=True, hi_open=True)
+    ratio_lTc_lNc: float = _f(1.0, lo=0.0, hi=100.0, lo_open=True)
+    friction: float = _f(0.3, lo=0.0, hi=5.0)
+    alpha: float = _f(2.0, lo=0.0, hi=20.0)
+    beta: float = _f(0.0, lo=0.0, hi=20.0)
+    g_max: float = _f(1.0e-3, lo=0.0, hi=10.0, lo_open=True)
+    F_th: float = _f(0.0, lo=0.0, hi=1e9)
+    contact: str = _f("linear", choices=("linear", "rough", "none"))
+    scaling: bool = _f(True)
+
+
+@dataclass(frozen=True)
+class Output:
+    dir: str = _f("out/koyna")
+    vtk_every: int = _f(0, lo=0, hi=10 ** 9, doc="0: no VTK output")
+
+
+@dataclass(frozen=True)
+class Solver:
+    tol_residual: float = _f(1e-8, lo=0.0, hi=1.0, lo_open=True)
+    tol_increment: float = _f(1e-10, lo=0.0, hi=1.0, lo_open=True)
+    max_iter: int = _f(30, lo=1, hi=10000)
+    min_dt: float = _f(1e-6, lo=0.0, hi=1.0, lo_open=True)
+
+
+@dataclass(frozen=True)
+class Scene:
+    name: str = "koyna"
+    description: str = ""
+    geometry: Geometry = field(default_factory=Geometry)
+    mesh: Mesh = field(default_factory=Mesh)
+    materials: Materials = field(default_factory=Materials)
+    loads: Loads = field(default_factory=Loads)
+    ground_motion: GroundMotion = field(default_factory=GroundMotion)
+    time: Time = field(default_factory=Time)
+    damping: Damping = field(default_factory=Damping)
+    interface: Interface = field(default_factory=Interface)
+    output: Output = field(default_factory=Output)
+    solver: Solver = field(default_factory=Solver)
+
+    def to_dict(self) -> dict:
+        return _to_plain(dataclasses.asdict(self))
+
+    # helpers for the model builder
+    def material(self, region: str):
+        from .model import Material as M
+
+        m = getattr(self.materials, region)
+        return M(m.E, m.nu, m.rho)
+
+    def model_kwargs(self) -> dict:
+        """Keyword arguments for ``model.build_model``."""
+        g, m, L = self.geometry, self.mesh, self.loads
+        return dict(foundation=g.foundation, order=m.order, gauss_points=m.gauss_points,
+                    dam=self.material("dam"), rock=self.material("rock"),
+                    gravity=L.gravity, reservoir_level=L.reservoir_level,
+                    water_density=L.water_density, lumped_mass=m.lumped_mass,
+                    rock_sides=g.rock_sides, include_rock_weight=L.rock_weight,
+                    h_heel=m.h_heel, h_coarse=m.h_coarse, h_interface=m.h_interface,
+                    heel_zone=m.heel_zone, growth=m.growth, grading=m.grading,
+                    extent_up=g.extent_up, extent_down=g.extent_down,
+                    extent_depth=g.extent_depth, matching=g.matching)
+
+
+def _to_plain(d):
+    if isinstance(d, dict):
+        return {k: _to_plain(v) for k, v in d.items()}
+    if isinstance(d, (list, tuple)):
+        return [_to_plain(v) for v in d]
+    return d
+
+
+# ---------------------------------------------------------------------------------------
+def _type_name(t) -> str:
+    return {float: "a number (float)", int: "an integer", bool: "a boolean (true/false)",
+            str: "a string", tuple: "an array"}.get(t, str(t))
+
+
+def _check_scalar(path: str, value, typ, md) -> Any:
+    if typ is bool:
+        if not isinstance(value, bool):
+            raise ValueError(f"{path} = {value!r}: wrong type, expected {_type_name(bool)}")
+        return value
+    if typ is int:
+        if isinstance(value, bool) or not isinstance(value, int):
+            raise ValueError(f"{path} = {value!r}: wrong type, expected {_type_name(int)}")
+    elif typ is float:
+        if isinstance(value, bool) or not isinstance(value, (int, float)):
+            raise ValueError(f"{path} = {value!r}: wrong type, expected {_type_name(float)}")
+        value = float(value)
+        if not math.isfinite(value):
+            raise ValueError(f"{path} = {value!r}: must be finite")
+    elif typ is str:
+        if not isinstance(value, str):
+            raise ValueError(f"{path} = {value!r}: wrong type, expected {_type_name(str)}")
+    choices = md.get("choices")
+    if choices is not None and value not in choices:
+        raise ValueError(f"{path} = {value!r}: not allowed, choose one of {list(choices)}")
+    lo, hi = md.get("lo"), md.get("hi")
+    if lo is not None and (value < lo or (md.get("lo_open") and value == lo)):
+        raise ValueError(f"{path} = {value!r}: out of range, allowed "
+                         f"{'(' if md.get('lo_open') else '['}{lo}, {hi}"
+                         f"{')' if md.get('hi_open') else ']'}")
+    if hi is not None and (value > hi or (md.get("hi_open") and value == hi)):
+        raise ValueError(f"{path} = {value!r}: out of range, allowed "
+                         f"{'(' if md.get('lo_open') else '['}{lo}, {hi}"
+                         f"{')' if md.get('hi_open') else ']'}")
+    return value
+
+
+def _build(cls, raw: dict, path: str):
+    if not isinstance(raw, dict):
+        raise ValueError(f"{path or 'scene'} = {raw!r}: wrong type, expected a table")
+    hints = get_type_hints(cls)
+    fields = {f.name: f for f in dataclasses.fields(cls)}
+    unknown = sorted(set(raw) - set(fields))
+    if unknown:
+        k = unknown[0]
+        raise ValueError(f"{path + '.' if path else ''}{k} = {raw[k]!r}: unknown key; allowed "
+                         f"keys{' in [' + path + ']' if path else ''}: {sorted(fields)}")
+    kw = {}
+    for name, val in raw.items():
+        f = fields[name]
+        typ = hints[name]
+        p = f"{path}.{name}" if path else name
+        if dataclasses.is_dataclass(typ):
+            kw[name] = _build(typ, val, p)
+        elif typ is tuple:
+            if not isinstance(val, (list, tuple)):
+                raise ValueError(f"{p} = {val!r}: wrong type, expected {_type_name(tuple)}")
+            default = f.default_factory()
+            md = dict(f.metadata)
+            out = []
+            for i, item in enumerate(val):
+                et = type(default[0]) if default else (float if name == "frequencies" else str)
+                out.append(_check_scalar(f"{p}[{i}]", item, et, md))
+            kw[name] = tuple(out)
+        else:
+            kw[name] = _check_scalar(p, val, typ, f.metadata)
+    obj = cls(**kw)
+    _cross_checks(obj, path)
+    return obj
+
+
+def _cross_checks(obj, path):
+    if isinstance(obj, Damping):
+        if len(obj.modes) != 2 or obj.modes[0] == obj.modes[1]:
+            raise ValueError(f"{path}.modes = {list(obj.modes)!r}: need two distinct mode "
+                             f"numbers >= 1")
+        if obj.frequencies and (len(obj.frequencies) != 2
+                                or obj.frequencies[0] == obj.frequencies[1]):
+            raise ValueError(f"{path}.frequencies = {list(obj.frequencies)!r}: need [] or two "
+                             f"distinct positive frequencies in Hz")
+    if isinstance(obj, GroundMotion):
+        if not obj.components or len(set(obj.components)) != len(obj.components):
+            raise ValueError(f"{path}.components = {list(obj.components)!r}: need a non-empty "
+                             f"subset of ['x', 'y'] without repetitions")
+    if isinstance(obj, Mesh) and obj.h_heel > obj.h_interface:
+        raise ValueError(f"{path}.h_heel = {obj.h_heel!r}: must be <= mesh.h_interface "
+                         f"({obj.h_interface})")
+
+
+def parse_override(item: str) -> tuple[list[str], Any]:
+    """'a.b.c=value' -> (['a','b','c'], value).  value is a TOML literal (1e9, true,
+    "rigid", [1, 3]); a bare word that is not valid TOML is taken as a string."""
+    if "=" not in item:
+        raise ValueError(f"--set {item!r}: expected KEY.PATH=VALUE")
+    key, _, sval = item.partition("=")
+    key, sval = key.strip(), sval.strip()
+    parts = key.split(".")
+    if not key or any(not p for p in parts):
+        raise ValueError(f"--set {item!r}: bad key path {key!r}")
+    try:
+        val = tomllib.loads(f"v = {sval}")["v"]
+    except tomllib.TOMLDecodeError:
+        if sval and all(c.isalnum() or c in "_-./" for c in sval):
+            val = sval
+        else:
+            raise ValueError(f"--set {item!r}: value {sval!r} is not a TOML literal") from None
+    return parts, val
+
+
+def apply_overrides(raw: dict, overrides) -> dict:
+    """Merge ``--set`` overrides into the raw scene dict (paths are checked against the
+    schema so that a typo fails with the allowed keys)."""
+    raw = _deepcopy(raw)
+    for item in overrides or ():
+        parts, val = parse_override(item)
+        cls = Scene
+        d = raw
+        for i, p in enumerate(parts):
+            hints = get_type_hints(cls)
+            if p not in hints:
+                where = ".".join(parts[:i]) or "scene"
+                raise ValueError(f"--set {item!r}: unknown key {'.'.join(parts[:i + 1])!r}; "
+                                 f"allowed keys in [{where}]: "
+                                 f"{sorted(f.name for f in dataclasses.fields(cls))}")
+            t = hints[p]
+            last = i == len(parts) - 1
+            if last:
+                if dataclasses.is_dataclass(t):
+                    raise ValueError(f"--set {item!r}: {'.'.join(parts)!r} is a table, "
+                                     f"set one of its keys")
+                d[p] = val
+            else:
+                if not dataclasses.is_dataclass(t):
+                    raise ValueError(f"--set {item!r}: {'.'.join(parts[:i + 1])!r} is not a "
+                                     f"table")
+                d = d.setdefault(p, {})
+                cls = t
+    return raw
+
+
+def _deepcopy(d):
+    if isinstance(d, dict):
+        return {k: _deepcopy(v) for k, v in d.items()}
+    if isinstance(d, list):
+        return [_deepcopy(v) for v in d]
+    return d
+
+
+def scene_path(name_or_path: str | Path) -> Path:
+    p = Path(name_or_path)
+    if p.suffix == ".toml" and p.exists():
+        return p
+    cand = SCENE_DIR / f"{name_or_path}.toml"
+    if cand.exists():
+        return cand
+    if p.exists():
+        return p
+    avail = sorted(q.stem for q in SCENE_DIR.glob("*.toml"))
+    raise ValueError(f"scene {str(name_or_path)!r}: no such file or shipped scene; "
+                     f"shipped scenes: {avail}")
+
+
+def from_dict(raw: dict, overrides=None) -> Scene:
+    return _build(Scene, apply_overrides(raw, overrides), "")
+
+
+def load_scene(name_or_path: str | Path = "koyna", overrides=None) -> Scene:
+    """Load a shipped scene by name or a TOML file by path, apply ``--set`` overrides
+    (list of 'a.b.c=value' strings), validate and return a frozen ``Scene``."""
+    p = scene_path(name_or_path)
+    with open(p, "rb") as fh:
+        try:
+            raw = tomllib.load(fh)
+        except tomllib.TOMLDecodeError as e:
+            raise ValueError(f"scene file {p}: TOML syntax error: {e}") from None
+    raw.setdefault("name", p.stem)
+    return from_dict(raw, overrides)
+
+
+def list_scenes() -> list[str]:
+    return sorted(q.stem for q in SCENE_DIR.glob("*.toml"))
