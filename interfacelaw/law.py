@@ -13,6 +13,8 @@ __all__ = ["InterfaceState", "InterfaceLaw"]
 # below this many points the parallel kernel's thread start-up costs more than it saves
 # (measured with tests/bench/test_bench_law.py on 2 cores)
 PARALLEL_MIN_POINTS = 4096
+# the kernels square gaps divided by l_Nc: this bound keeps every square far from overflow
+GAP_LIMIT = 1e100
 
 
 @dataclass(frozen=True)
@@ -96,10 +98,14 @@ class InterfaceLaw:
         self.friction = friction
         self.damage = damage
         self.parallel = parallel
-        self._coh = cohesive.as_array()
-        self._con = None if contact is None else contact.as_array(cohesive)
-        self._fri = None if friction is None else friction.as_array(cohesive)
-        self._dmg = None if damage is None else damage.as_array(cohesive)
+        # parameters go to the kernel as tuples of floats (no reference counting per point)
+        c = cohesive
+        self._coh = (c.sigma_max, c.tau_max, c.l_Nc, c.l_Tc, c.lambda_max, 1.0 / c.l_Nc,
+                     1.0 / c.l_Tc, c.tau_max * c.l_Nc / c.l_Tc ** 2, 1.0 / c.lambda_max,
+                     1.0 / (1.0 - c.lambda_max))
+        self._con = None if contact is None else tuple(map(float, contact.as_array(cohesive)))
+        self._fri = None if friction is None else tuple(map(float, friction.as_array(cohesive)))
+        self._dmg = None if damage is None else tuple(map(float, damage.as_array(cohesive)))
 
     def __repr__(self):
         return (f"InterfaceLaw({self.cohesive}, contact={self.contact}, "
@@ -135,11 +141,13 @@ class InterfaceLaw:
         if state.n != n or state.dim != dim:
             raise ValueError(f"evaluate state: {state.n} points in {state.dim}D do not match "
                              f"gap of shape {gap.shape}; allowed: the same n and dim")
-        finite = np.isfinite(gap).all(axis=1)
-        if not finite.all():
-            i = int(np.flatnonzero(~finite)[0])
-            raise ValueError(f"evaluate gap[{i}] = {gap[i].tolist()} is not finite; allowed: "
-                             "finite values (first bad point shown)")
+        big = np.abs(gap).max() if n else 0.0
+        if not big <= GAP_LIMIT:                      # one pass: also catches NaN and inf
+            bad = ~(np.abs(gap) <= GAP_LIMIT).all(axis=1)
+            i = int(np.flatnonzero(bad)[0])
+            raise ValueError(f"evaluate gap[{i}] = {gap[i].tolist()} is not finite or exceeds "
+                             f"{GAP_LIMIT:g} m; allowed: finite values with |g| <= {GAP_LIMIT:g} m"
+                             " (first bad point shown)")
 
     def evaluate(self, gap: np.ndarray, state: InterfaceState, out=None, check: bool = True):
         """Traction, consistent tangent and end-of-step state for the total gap ``gap``.

@@ -20,7 +20,7 @@ module provides
 
 The choices (b_ref, the friction form, the compression exponent, what happens to a softening
 point when the parameters change) are documented in ``docs/parts/scaling.md``.
-Pure numpy (+ scipy for the t quantile): never imports NGSolve.
+Pure numpy (+ scipy.special for the t quantile): never imports NGSolve.
 """
 from __future__ import annotations
 
@@ -75,7 +75,7 @@ def _positive_array(where: str, name: str, value) -> np.ndarray:
     bad = ~np.isfinite(a) | (a <= 0.0)
     if bad.any():
         i = np.flatnonzero(bad.ravel())[0]
-        raise ValueError(f"{where}: {name} contains {a.ravel()[i]!r} (index {i}); allowed: "
+        raise ValueError(f"{where}: {name} contains {float(a.ravel()[i])!r} (index {i}); allowed: "
                          "finite real numbers > 0")
     return a
 
@@ -254,9 +254,9 @@ def fit_power_law(sizes, values, *, b_ref: float = 1.0,
     r2 = 1.0 if ss_tot == 0.0 else 1.0 - ss_res / ss_tot
     n = int(x.size)
     if n > 2:
-        from scipy.stats import t as student_t
+        from scipy.special import stdtrit      # Student-t quantile (lighter than scipy.stats)
         se = math.sqrt(ss_res / (n - 2) / sxx)
-        half = float(student_t.ppf(0.5 + c / 2.0, n - 2)) * se
+        half = float(stdtrit(n - 2, 0.5 + c / 2.0)) * se
     else:
         se, half = math.inf, math.inf
     return PowerLawFit(k, math.exp(a0), b_ref, r2, k - half, k + half, se, n, c)

@@ -449,7 +449,7 @@ def test_evaluate_validation_names_first_bad_point():
     g = np.zeros((3, 2))
     g[1, 1] = np.nan
     g[2, 0] = np.inf
-    with pytest.raises(ValueError, match=r"gap\[1\] = \[0.0, nan\] is not finite"):
+    with pytest.raises(ValueError, match=r"gap\[1\] = \[0.0, nan\] is not finite or exceeds 1e\+100 m"):
         law.evaluate(g, s)
     with pytest.raises(ValueError, match=r"dtype float32.*allowed"):
         law.evaluate(np.zeros((3, 2), np.float32), s)

@@ -3,6 +3,7 @@ reference's tangent against finite differences. Specification: docs/decisions.md
 from __future__ import annotations
 
 import itertools
+import os
 
 import numpy as np
 import pytest
@@ -18,8 +19,8 @@ RTOL = 1e-12
 
 CONTACTS = [None, ContactParams("linear"), ContactParams("rough"),
             ContactParams("rough", exponent=2.7, penalty=5e10, intact_stiffness=8e10)]
-DAMAGES = [None, DamageParams(g_max=5e-4),
-           DamageParams(g_max=3e-4, alpha=2.0, beta=1.5, F_th=3e5),
+DAMAGES = [None, DamageParams(g_max=2e-4),
+           DamageParams(g_max=1.5e-4, alpha=2.0, beta=1.5, F_th=3e5),
            DamageParams(g_max=8e-4, alpha=0.5, beta=0.0, F_th=1e6)]
 
 
@@ -38,7 +39,8 @@ def scales(coh):
 
 
 def compare(law, gap, state, rtol=RTOL):
-    """Max of |numba - reference| / max(|reference|, scale) per output; both outputs."""
+    """Max of |numba - reference| / max(|reference|, scale) per output; both outputs.
+    """
     F, T, new = law.evaluate(gap, state)
     Fr, Tr, newr = evaluate_reference(law, gap, state)
     sc = scales(law.cohesive)
@@ -68,22 +70,27 @@ def random_state(rng, n, dim, coh=COH):
     k[rng.random(n) < 0.05] = 1.0
     D = rng.uniform(0.0, 1.0, n)
     D[rng.random(n) < 0.4] = 0.0
+    hi = rng.random(n) < 0.15
+    D[hi] = rng.uniform(0.95, 1.0, hi.sum())          # close to clipping
     D[rng.random(n) < 0.1] = 1.0
-    sep = rng.uniform(0.0, 1.5, n) * coh.l_Nc * rng.choice([0.1, 1.0], n)
+    sep = rng.uniform(0.0, 1.5, n) * coh.l_Nc * rng.choice([0.0, 0.1, 1.0], n)
     slip = rng.uniform(-1.0, 1.0, (n, dim - 1)) * coh.l_Nc
+    clip = rng.random(n) < 0.10                       # any damage growth clips D at 1
+    D[clip], sep[clip] = 1.0 - 1e-6, 0.0
     diss = rng.uniform(0.0, 1.0, n) * coh.G_I
     return InterfaceState(k, D, sep, slip, diss)
 
 
 def random_gap(rng, n, dim, coh=COH):
-    scale = rng.choice([0.05, 0.3, 1.0, 2.0], n)[:, None]
+    scale = rng.choice([0.05, 0.3, 1.0, 2.0, 4.0], n)[:, None]
     g = rng.uniform(-1.0, 1.0, (n, dim)) * scale
     g[:, 0] *= coh.l_Nc
     g[:, 1:] *= coh.l_Tc
     # some pure mode I / mode II / pure closure points
     m = rng.random(n)
     g[m < 0.05, 1:] = 0.0
-    g[(m >= 0.05) & (m < 0.1), 0] = 0.0
+    mII = (m >= 0.05) & (m < 0.1)                    # mode II, on either side of g_N = 0
+    g[mII, 0] = rng.choice([-1e-20, 0.0, 1e-20], mII.sum()) * coh.l_Nc
     return g
 
 
@@ -168,8 +175,9 @@ def near_kink(law, gap, state):
         al, be, gmax, fth = law.damage.as_array(c)
         sep = np.hypot(gNp, gT)
         dg = sep - state.separation
+        ks = np.where(kap > c.lambda_max, kap, 1.0)
         s = np.where(kap <= c.lambda_max, 1 / c.lambda_max,
-                     np.where(kap < 1, (1 - kap) / (kap * (1 - c.lambda_max)), 0.0))
+                     np.where(kap < 1, (1 - ks) / (ks * (1 - c.lambda_max)), 0.0))
         a = np.hypot(c.sigma_max * gNp / c.l_Nc, c.tau_max * c.l_Nc / c.l_Tc ** 2 * gT)
         r = s * a / c.sigma_max
         B = np.where(r > fth, np.maximum(r - fth, 0.0) ** be, 0.0)
@@ -217,7 +225,8 @@ def test_reference_tangent_finite_differences(dim):
         err = np.abs(Tfd - T) / np.maximum(np.abs(T), tol_scale)
         i = int(np.unravel_index(np.argmax(err), err.shape)[0]) if m else 0
         assert m == 0 or err.max() < FD_TOL, (law, gap[i], state.take([i]), T[i], Tfd[i])
-    assert kept_total > 0.8 * 300 * len(list(all_laws()))
+    # ~10 % of the points are put exactly on the kinks g_N = 0 or kappa_old = 0, 1 on purpose
+    assert kept_total > 0.6 * 300 * len(list(all_laws()))
 
 
 # ----------------------------------------------------------------------------------------
@@ -227,18 +236,16 @@ _f = dict(allow_nan=False, allow_infinity=False)
 @st.composite
 def law_gap_state(draw):
     sig = draw(st.floats(1e5, 1e8))
-    coh = CohesiveParams(sigma_max=sig, tau_max=sig * draw(st.floats(0.1, 10.0)),
-                         l_Nc=draw(st.floats(1e-6, 1e-2)), l_Tc=0.0 + 1.0, lambda_max=0.5)
-    coh = coh.replace(l_Tc=coh.l_Nc * draw(st.floats(0.2, 5.0)),
-                      lambda_max=draw(st.floats(0.01, 0.99)))
+    l_Nc = draw(st.floats(1e-6, 1e-2))
+    coh = CohesiveParams(sigma_max=sig, tau_max=sig * draw(st.floats(0.1, 10.0)), l_Nc=l_Nc,
+                         l_Tc=l_Nc * draw(st.floats(0.2, 5.0)),
+                         lambda_max=draw(st.floats(0.01, 0.99)))
     kind = draw(st.sampled_from([None, "linear", "rough"]))
     con = None
-    if kind == "linear":
-        con = ContactParams("linear", penalty=draw(st.none() | st.floats(1e-2, 1e2)))
-    elif kind == "rough":
-        con = ContactParams("rough", exponent=draw(st.floats(1.0, 4.0)))
-    if con is not None and con.penalty is not None:
-        con = ContactParams(con.kind, penalty=con.penalty * coh.k_normal)
+    if kind is not None:
+        pen = draw(st.none() | st.floats(1e-2, 1e2))
+        con = ContactParams(kind, penalty=None if pen is None else pen * coh.k_normal,
+                            exponent=None if kind == "linear" else draw(st.floats(1.0, 4.0)))
     fri = None
     if con is not None and draw(st.booleans()):
         fri = FrictionParams(draw(st.floats(0.0, 2.0)))
@@ -263,9 +270,28 @@ def law_gap_state(draw):
     return law, gap, state
 
 
-@settings(max_examples=300, deadline=None, suppress_health_check=list(HealthCheck))
+@settings(max_examples=int(os.environ.get("REFERENCE_HYPOTHESIS_EXAMPLES", 300)), deadline=None, suppress_health_check=list(HealthCheck))
 @given(law_gap_state())
 def test_numba_matches_reference_hypothesis(lgs):
     law, gap, state = lgs
     bad = compare(law, gap, state)
     assert not bad, (law, bad)
+
+
+# ----------------------------------------------------------------------------------------
+def test_reference_tangent_at_zero_normal_gap():
+    """g_N = 0 with an intact interface and the default K_intact: both one-sided slopes of F_N
+    are K0 (docs §1.3: 'no jump for an intact interface'), so the tangent is K0 there."""
+    law = InterfaceLaw(COH, ContactParams("linear"))
+    gap = np.array([[0.0, 0.0], [0.0, 1e-6], [1e-12, 0.0], [-1e-12, 0.0]])
+    _, T, _ = evaluate_reference(law, gap, law.initial_state(4))
+    np.testing.assert_allclose(T[:, 0, 0], COH.k_normal, rtol=1e-12)
+
+
+def test_tangent_at_zero_normal_gap():
+    """Regression: the kernel once took d<g_N>/dg_N = 0 at g_N == 0 exactly, so the first
+    Newton iteration from the initial state had no normal stiffness."""
+    law = InterfaceLaw(COH, ContactParams("linear"))
+    gap = np.array([[0.0, 0.0], [0.0, 1e-6]])
+    _, T, _ = law.evaluate(gap, law.initial_state(2))
+    np.testing.assert_allclose(T[:, 0, 0], COH.k_normal, rtol=1e-12)

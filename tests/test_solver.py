@@ -1,0 +1,223 @@
+"""Tests of ngs_driver.solver (condensed interface Newton vs full Newton, Newmark, step cutting).
+
+The model is ngs_driver.solver_toymodel.block_on_block: a 4 m x 2 m elastic "dam" on an
+8 m x 2 m "rock", P1 triangles, matching interface nodes, 2 Gauss points per interface segment.
+Low strengths (30 kPa) so a crest load opens, closes, slides and damages the interface.
+"""
+import numpy as np
+import pytest
+
+pytest.importorskip("scipy")
+
+from interfacelaw import (CohesiveParams, ContactParams, DamageParams, FrictionParams,
+                          InterfaceLaw)
+from ngs_driver.solver import NewmarkSolver, SolverError
+from ngs_driver.solver_toymodel import block_on_block
+
+
+@pytest.fixture(scope="module")
+def model():
+    return block_on_block(0.5)
+
+
+def weak_law(**kw):
+    coh = CohesiveParams.from_fracture_energy(3e4, 3e4, 3.0, 0.2)
+    return InterfaceLaw(coh, ContactParams("linear"), FrictionParams(0.3),
+                        DamageParams(g_max=1e-3, alpha=2), **kw)
+
+
+def strong_elastic_law():
+    # stays in the initial elastic branch (lambda << lambda_max), contact intact in compression
+    coh = CohesiveParams.from_fracture_energy(3e9, 3e9, 3e6, 0.2)
+    return InterfaceLaw(coh, ContactParams("linear"))
+
+
+def crest_load(m, n, dt=2e-3, amp=1.2e5, freq=10.0):
+    return m.gravity + amp * np.sin(2 * np.pi * freq * n * dt) * m.crest_x
+
+
+def run(m, law, method, nsteps=60, dt=2e-3, C=None, **kw):
+    s = NewmarkSolver(m.K, m.M, C, m.B, m.w, law, dt=dt, method=method, **kw)
+    s.static(m.gravity)
+    U, hist = [], dict(gN_max=0.0, closed_after_debond=False, slip=0.0, D=0.0, cuts=0)
+    for n in range(1, nsteps + 1):
+        rep = s.step(crest_load(m, n, dt))
+        hist["cuts"] += rep.cuts
+        U.append(s.u.copy())
+        hist["gN_max"] = max(hist["gN_max"], s.g[:, 0].max())
+        deb = s.state.debonded
+        hist["closed_after_debond"] |= bool(np.any(deb & (s.g[:, 0] < 0) & (s.t[:, 0] < 0)))
+        hist["slip"] = max(hist["slip"], np.abs(s.state.slip).max())
+        hist["D"] = max(hist["D"], s.state.damage.max())
+    return s, np.array(U), hist
+
+
+def test_condensed_matches_full_newton(model):
+    law = weak_law()
+    sc, Uc, hc = run(model, law, "condensed", tol_residual=1e-11)
+    sf, Uf, hf = run(model, law, "full", tol_residual=1e-11)
+    # the history contains opening, closure on a debonded crack, frictional sliding, damage
+    assert hc["gN_max"] > 0.5 * law.cohesive.l_Nc          # opened well into softening
+    assert hc["closed_after_debond"]
+    assert hc["slip"] > 1e-4
+    assert hc["D"] > 1e-3
+    assert sc.state.debonded.any()
+    rel = np.abs(Uc - Uf).max() / np.abs(Uf).max()
+    assert rel < 1e-8, rel
+    for f in ("kappa", "damage", "slip", "dissipated"):
+        a, b = getattr(sc.state, f), getattr(sf.state, f)
+        assert np.abs(a - b).max() <= 1e-8 * max(np.abs(b).max(), 1e-30), f
+    # the condensed method needs fewer iterations than there are steps x 2
+    its = sum(r.iterations for r in sc.history[1:])
+    assert its <= 2.5 * 60
+
+
+def test_set_law_size_scale_update(model):
+    """A parameter change between steps (k0 changes): condensed keeps its factorised K0 and
+    treats the difference as part of phi; it must agree with the full Newton."""
+    law = weak_law()
+    law2 = law.with_params(cohesive=law.cohesive.replace(sigma_max=3.3e4, l_Nc=2.2e-4))
+    out = []
+    for method in ("condensed", "full"):
+        s = NewmarkSolver(model.K, model.M, None, model.B, model.w, law, dt=2e-3,
+                          method=method, tol_residual=1e-11)
+        s.static(model.gravity)
+        for n in range(1, 31):
+            if n == 10:
+                s.set_law(law2)
+            s.step(crest_load(model, n))
+        out.append(s.u)
+    assert np.abs(out[0] - out[1]).max() <= 1e-8 * np.abs(out[1]).max()
+
+
+def plain_newmark(m, Ktot, u0, v0, f_list, dt, beta=0.25, gamma=0.5, C=None):
+    import scipy.sparse.linalg as spl
+    Cm = C if C is not None else 0 * m.M
+    c0, c1, c2 = 1 / (beta * dt ** 2), gamma / (beta * dt), 1 / (beta * dt)
+    c3, c4, c5 = 0.5 / beta - 1, gamma / beta - 1, dt * (0.5 * gamma / beta - 1)
+    lu = spl.splu((Ktot + c0 * m.M + c1 * Cm).tocsc())
+    u, v = u0.copy(), v0.copy()
+    a = spl.spsolve(m.M.tocsc(), f_list[0] - Ktot @ u - Cm @ v)
+    out = []
+    for f in f_list[1:]:
+        rhs = f + m.M @ (c0 * u + c2 * v + c3 * a) + Cm @ (c1 * u + c4 * v + c5 * a)
+        un = lu.solve(rhs)
+        an = c0 * (un - u) - c2 * v - c3 * a
+        v = v + dt * ((1 - gamma) * a + gamma * an)
+        u, a = un, an
+        out.append(u.copy())
+    return np.array(out)
+
+
+@pytest.mark.parametrize("method", ["condensed", "full"])
+def test_linear_equals_plain_newmark(model, method):
+    m = model
+    law = strong_elastic_law()
+    k0 = np.array([law.cohesive.k_normal, law.cohesive.k_tangential])
+    import scipy.sparse as sp
+    Ktot = (m.K + m.B.T @ sp.diags(np.tile(k0, m.npts) * np.repeat(m.w, 2)) @ m.B).tocsr()
+    C = 1e-4 * m.K + 2.0 * m.M
+    dt = 1e-3
+    f_list = [m.gravity + 1e7 * np.sin(2 * np.pi * 30 * n * dt) * m.crest_x for n in range(41)]
+    s = NewmarkSolver(m.K, m.M, C, m.B, m.w, law, dt=dt, method=method, tol_residual=1e-12)
+    s.static(f_list[0])
+    u0 = s.u.copy()
+    U = []
+    for f in f_list[1:]:
+        rep = s.step(f)
+        assert rep.cuts == 0
+        U.append(s.u.copy())
+    if method == "condensed":
+        assert s._active.sum() == 0                     # never left the elastic branch
+    Ur = plain_newmark(m, Ktot, u0, np.zeros(m.ndof), f_list, dt, C=C)
+    assert np.abs(np.array(U) - Ur).max() <= 1e-10 * np.abs(Ur).max()
+
+
+def test_energy_conserved_undamped_average_acceleration(model):
+    m = model
+    law = strong_elastic_law()
+    s = NewmarkSolver(m.K, m.M, None, m.B, m.w, law, dt=5e-4)
+    s.static(1e7 * m.crest_x)                 # pre-stressed, then released
+    zero = np.zeros(m.ndof)
+    s.initial_acceleration(zero)
+    E0 = s.energy()
+    Es = []
+    for n in range(100):
+        s.step(zero)
+        Es.append(s.energy())
+    assert np.abs(np.array(Es) - E0).max() <= 1e-10 * E0
+    assert np.abs(s.v).max() > 0                 # it did vibrate
+
+
+def test_step_is_cut_and_matches_smaller_dt(model):
+    """A large step that cannot converge in max_iter is cut; the result equals a run with the
+    smaller dt from the start (load interpolated linearly inside the step)."""
+    m = model
+    law = weak_law()
+    F = m.gravity + 1.6e5 * m.crest_x
+    s = NewmarkSolver(m.K, m.M, None, m.B, m.w, law, dt=2e-2, tol_residual=1e-11)
+    s.static(m.gravity)
+    s.max_iter = 6
+    rep = s.step(F)
+    assert rep.cuts >= 1 and len(rep.dts) >= 2
+    h = min(rep.dts)
+    assert all(d == h for d in rep.dts)
+    nsub = len(rep.dts)
+    r = NewmarkSolver(m.K, m.M, None, m.B, m.w, law, dt=h, tol_residual=1e-11)
+    r.static(m.gravity)
+    for k in range(1, nsub + 1):
+        rr = r.step(m.gravity + (k / nsub) * (F - m.gravity))
+        assert rr.cuts == 0
+    assert np.abs(s.u - r.u).max() <= 1e-9 * np.abs(r.u).max()
+    assert np.abs(s.state.damage - r.state.damage).max() <= 1e-9
+    assert s.time == pytest.approx(2e-2)
+
+
+def test_min_dt_raises_and_keeps_committed_state(model):
+    m = model
+    law = weak_law()
+    s = NewmarkSolver(m.K, m.M, None, m.B, m.w, law, dt=2e-2, min_dt=1e-2)
+    s.static(m.gravity)
+    s.max_iter = 1
+    u0, st0 = s.u.copy(), s.state.copy()
+    with pytest.raises(SolverError, match="minimum sub-step"):
+        s.step(m.gravity + 1.6e5 * m.crest_x)
+    # nothing unconverged was accepted: either unchanged or at an accepted sub-step
+    if s.time == 0.0:
+        assert np.array_equal(s.u, u0)
+        assert np.array_equal(s.state.damage, st0.damage)
+
+
+def test_hht_linear_dissipates(model):
+    """HHT-alpha (alpha = -0.1) on the undamped elastic problem: energy decays, no growth."""
+    m = model
+    law = strong_elastic_law()
+    s = NewmarkSolver(m.K, m.M, None, m.B, m.w, law, dt=5e-4, alpha_hht=-0.1)
+    s.static(1e7 * m.crest_x)
+    zero = np.zeros(m.ndof)
+    s.initial_acceleration(zero)
+    E0 = s.energy()
+    for n in range(50):
+        s.step(zero)
+    assert s.energy() < E0
+
+
+def test_report_fields(model):
+    law = weak_law()
+    s = NewmarkSolver(model.K, model.M, None, model.B, model.w, law, dt=2e-3)
+    rep = s.static(model.gravity)
+    assert rep.iterations >= 1 and rep.cuts == 0
+    rep = s.step(crest_load(model, 1))
+    assert rep.dts == [2e-3] and len(rep.residuals) == 1
+    assert rep.residuals[0] <= s.tol_residual
+    assert 0 <= rep.n_active <= model.npts
+
+
+def test_krylov_path_matches_full(model):
+    """Large-active-set path (GMRES preconditioned by a reused dense LU) forced with
+    dense_max=0: same answer as the full Newton."""
+    law = weak_law()
+    sc, Uc, _ = run(model, law, "condensed", nsteps=30, tol_residual=1e-11, dense_max=0)
+    sf, Uf, _ = run(model, law, "full", nsteps=30, tol_residual=1e-11)
+    assert sc.stats["krylov_solves"] > 0
+    assert np.abs(Uc - Uf).max() <= 1e-8 * np.abs(Uf).max()
