@@ -13,7 +13,7 @@ import time
 
 HERE = pathlib.Path(__file__).resolve().parent
 STUDIES = ["material_point", "scaling_plots", "ground_motion_plot", "model_checks",
-           "fe_studies"]
+           "dcb_study", "koyna_studies"]
 
 
 def main(argv=None) -> int:
