@@ -1,0 +1,130 @@
+"""The bad-input catalogue (issue #8): every mistake in an input gives one clear ValueError that
+names the field (or file and line), the value and what is allowed. Each case asserts the words
+of the message, so a vaguer message fails the test."""
+import numpy as np
+import pytest
+
+from interfacelaw import (CohesiveParams, ContactParams, DamageParams, FrictionParams,
+                          InterfaceLaw)
+from interfacelaw.scaling import SizeScaling, fit_power_law
+from ngs_driver import ground_motion as gm
+from ngs_driver.scene import load_scene
+
+COH = CohesiveParams.from_fracture_energy(3e6, 3e6, 250.0, 0.2, 1.0)
+LAW = InterfaceLaw(COH, ContactParams(), FrictionParams(0.3), DamageParams(g_max=1e-3))
+
+
+def _gap(**kw):
+    g = np.zeros((4, 2))
+    for k, v in kw.items():
+        g[int(k[1:])] = v
+    return g
+
+
+PARAMS = [
+    ("sigma_max negative", lambda: CohesiveParams(-3e6, 3e6, 1e-4, 1e-4, 0.2),
+     r"sigma_max = -3000000.0 is out of range; allowed: \(0.0, \+inf\)"),
+    ("lambda_max = 1", lambda: CohesiveParams(3e6, 3e6, 1e-4, 1e-4, 1.0),
+     r"lambda_max = 1.0 is out of range; allowed: \(0.0, 1.0\)"),
+    ("l_Nc NaN", lambda: CohesiveParams(3e6, 3e6, float("nan"), 1e-4, 0.2), r"l_Nc = nan"),
+    ("G_I zero", lambda: CohesiveParams.from_fracture_energy(3e6, 3e6, 0.0, 0.2), r"G_I = 0.0"),
+    ("friction negative", lambda: FrictionParams(-0.3), r"FrictionParams.f = -0.3"),
+    ("g_max zero", lambda: DamageParams(g_max=0.0), r"DamageParams.g_max = 0.0"),
+    ("alpha string", lambda: DamageParams(g_max=1e-3, alpha="two"),
+     r"DamageParams.alpha = 'two' is not a real number"),
+    ("contact kind", lambda: ContactParams("sticky"), r"kind = 'sticky' is not allowed"),
+    ("rough exponent", lambda: ContactParams("rough", exponent=50), r"exponent = 50"),
+    ("friction without contact", lambda: InterfaceLaw(COH, friction=FrictionParams()),
+     r"friction only with a ContactParams"),
+    ("scaling negative b", lambda: SizeScaling.paper().params_for(-1.0),
+     r"b = -1.0 is not allowed; allowed: finite and >= 0"),
+    ("fit one point", lambda: fit_power_law([1.0], [2.0]),
+     r"1 point\(s\) given; allowed: at least 2 points"),
+    ("fit non-positive", lambda: fit_power_law([1.0, 2.0], [1.0, -2.0]),
+     r"values contains -2.0 \(index 1\); allowed: finite real numbers > 0"),
+]
+
+GAPS = [
+    ("gap NaN", lambda: LAW.evaluate(_gap(p2=[np.nan, 0.0]), LAW.initial_state(4)),
+     r"gap\[2\] = \[nan, 0.0\] is not finite"),
+    ("gap inf", lambda: LAW.evaluate(_gap(p3=[0.0, np.inf]), LAW.initial_state(4)),
+     r"gap\[3\] = \[0.0, inf\]"),
+    ("gap 1e200", lambda: LAW.evaluate(_gap(p0=[1e200, 0.0]), LAW.initial_state(4)),
+     r"exceeds 1e\+100 m"),
+    ("gap int dtype", lambda: LAW.evaluate(np.zeros((4, 2), int), LAW.initial_state(4)),
+     r"dtype int64 .*allowed: a float64 array"),
+    ("gap 4 columns", lambda: LAW.evaluate(np.zeros((4, 4)), LAW.initial_state(4)),
+     r"shape \(4, 4\)"),
+    ("state of other size", lambda: LAW.evaluate(np.zeros((4, 2)), LAW.initial_state(5)),
+     r"5 points in 2D do not match gap of shape \(4, 2\)"),
+]
+
+
+def _records(tmp):
+    (tmp / "empty.txt").write_text("")
+    (tmp / "nonnum.txt").write_text("0 0.1\n0.01 x\n")
+    (tmp / "nonuni.txt").write_text("0 0.1\n0.01 0.2\n0.03 0.1\n")
+    (tmp / "nan.txt").write_text("0 0.1\n0.01 nan\n0.02 0.1\n")
+    (tmp / "ok.txt").write_text("0 0.1\n0.01 0.2\n0.02 0.1\n")
+    (tmp / "short.AT2").write_text("h\nh\nh\nNPTS= 3, DT= .0050 SEC\n0.1 0.2\n")
+    return [
+        ("record missing", lambda: gm.read_two_column(tmp / "none.txt", "g"),
+         r"does not exist \(missing file\)"),
+        ("record empty", lambda: gm.read_two_column(tmp / "empty.txt", "g"), r"is empty"),
+        ("record non-numeric line", lambda: gm.read_two_column(tmp / "nonnum.txt", "g"),
+         r"line 2: field a = 'x' is not a number"),
+        ("record non-uniform dt", lambda: gm.read_two_column(tmp / "nonuni.txt", "g"),
+         r"non-uniform dt"),
+        ("record NaN", lambda: gm.read_two_column(tmp / "nan.txt", "g"), r"line 2.*NaN"),
+        ("record wrong units", lambda: gm.read_two_column(tmp / "ok.txt", "furlongs"),
+         r"units='furlongs' is not allowed"),
+        ("AT2 too few points", lambda: gm.read_at2(tmp / "short.AT2"),
+         r"NPTS=3 but 2 values follow"),
+        ("resample negative dt", lambda: gm.resample(gm.load_default(), -1.0), r"dt=-1.0"),
+    ]
+
+
+SCENES = [
+    (["mesh.h_heel=-1"], r"mesh.h_heel = -1.0: out of range"),
+    (["mesh.order=0"], r"mesh.order = 0: out of range"),
+    (["mesh.gauss_points=0"], r"mesh.gauss_points = 0: out of range"),
+    (["mesh.hheel=1"], r"unknown key 'mesh.hheel'"),
+    (["nosuch.x=1"], r"unknown key 'nosuch'"),
+    (["time.dt=0"], r"time.dt = 0.0: out of range"),
+    (["geometry.foundation='soft'"], r"foundation = 'soft': not allowed"),
+    (["interface.alpha='x'"], r"interface.alpha = 'x': wrong type"),
+    (["materials.dam.nu=0.6"], r"materials.dam.nu = 0.6: out of range"),
+    (["interface.lambda_max=1.0"], r"interface.lambda_max = 1.0: out of range"),
+    (["interface.contact='soft'"], r"interface.contact = 'soft': not allowed"),
+    (["mesh.h_heel"], r"expected KEY.PATH=VALUE"),
+    (["mesh.h_heel=[1,"], r"is not a TOML literal"),
+]
+
+
+@pytest.mark.parametrize("name,make,pat", PARAMS + GAPS, ids=[c[0] for c in PARAMS + GAPS])
+def test_parameters_and_gaps(name, make, pat):
+    with pytest.raises(ValueError, match=pat):
+        make()
+
+
+def test_record_files(tmp_path):
+    cases = _records(tmp_path)
+    assert len(cases) >= 8
+    for name, make, pat in cases:
+        with pytest.raises(ValueError, match=pat):
+            make()
+
+
+@pytest.mark.parametrize("sets,pat", SCENES, ids=[s[0][0] for s in SCENES])
+def test_scene_values(sets, pat):
+    with pytest.raises(ValueError, match=pat):
+        load_scene("koyna", sets)
+
+
+def test_unknown_scene_lists_the_shipped_ones():
+    with pytest.raises(ValueError, match=r"scene 'nosuchscene'.*shipped scenes: \[.*'koyna'"):
+        load_scene("nosuchscene")
+
+
+def test_catalogue_has_at_least_30_cases(tmp_path):
+    assert len(PARAMS) + len(GAPS) + len(_records(tmp_path)) + len(SCENES) + 1 >= 30
