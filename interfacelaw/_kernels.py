@@ -154,11 +154,22 @@ def _point(gN, gT1, gT2, ko, Do, sepo, s1, s2, coh, contact, friction, damage):
     dFNc0 = 0.0
     if contact is not None:
         if gN < 0.0:
-            Kint, CN, gref, m = contact
+            Kint, CN, gref, m, cs = contact
             w = 1.0 - (1.0 - Dn) * lm * s               # lost stiffness fraction omega
             c = -gN / gref
-            p = -CN * gref * _pow(c, m)
-            pp = CN * m * _pow(c, m - 1.0)
+            # crack law: p = -C_N g_ref c^m, stiffness C_N m c^(m-1) capped at K_int beyond
+            # c* = cs (a closed crack is never stiffer than the bond), potential Pi
+            if c <= cs:
+                cm = _pow(c, m)
+                p = -CN * gref * cm
+                pp = CN * m * _pow(c, m - 1.0)
+                Pi = CN * gref * gref * cm * c / (m + 1.0)
+            else:
+                csm = _pow(cs, m)
+                p = -(CN * csm + Kint * (c - cs)) * gref
+                pp = Kint
+                Pi = gref * gref * (CN * csm * cs / (m + 1.0) + CN * csm * (c - cs)
+                                    + 0.5 * Kint * (c - cs) * (c - cs))
             FNc = (1.0 - w) * Kint * gN + w * p
             dFNc0 = (1.0 - w) * Kint + w * pp
             jump = p - Kint * gN
@@ -167,6 +178,12 @@ def _point(gN, gT1, gT2, ko, Do, sepo, s1, s2, coh, contact, friction, damage):
             T01 += jump * lm * (s * dD1 - e * dk1)
             T02 += jump * lm * (s * dD2 - e * dk2)
             F0 += FNc
+            # energy: moving bonded area into crack area at fixed g_N releases
+            # (omega - omega_old)(K_int g_N^2/2 - Pi(g_N)) >= 0 (Pi <= K_int g_N^2/2 by the cap)
+            so = secant(ko, lm, ilm, ilm1)[0]
+            w_old = 1.0 - (1.0 - Do) * lm * so
+            if w != w_old:
+                dphi += (w - w_old) * (0.5 * Kint * gN * gN - Pi)
 
     # ---- friction after decohesion, Eqs. 4-5 (return map) -----------------------------------
     n1 = s1

@@ -128,7 +128,8 @@ class ContactParams:
     penalty : C_N [Pa/m]; None -> the cohesive initial stiffness K0 = sigma_max/(lambda_max l_Nc).
     exponent : m >= 1 (forced to 1 for "linear"); default 2 for "rough".
     g_ref : [m] closure at which the rough law's secant stiffness is C_N; None -> lambda_max l_Nc.
-    intact_stiffness : compressive stiffness of the intact interface [Pa/m]; None -> K0.
+    intact_stiffness : compressive stiffness of the intact interface [Pa/m]; None -> K0 for
+        "rough", C_N for "linear".
     """
 
     kind: str = "linear"
@@ -157,13 +158,38 @@ class ContactParams:
             object.__setattr__(self, "exponent", m)
 
     def as_array(self, coh: CohesiveParams) -> np.ndarray:
-        """[K_intact, C_N, g_ref, m] with the defaults resolved against ``coh``."""
+        """[K_intact, C_N, g_ref, m, c*] with the defaults resolved against ``coh``; c* is the
+        normalised closure beyond which the crack stiffness is capped at K_intact.
+
+        Default K_intact: K0 for "rough"; for "linear" the penalty C_N (itself K0 by default),
+        so a linear law is one linear spring in compression whatever the damage (a penalty
+        stiffer than the intact bond would otherwise create energy as damage grows in
+        compression: docs/decisions.md §1.3)."""
         k0 = coh.k_normal
+        cn = k0 if self.penalty is None else self.penalty
+        if self.intact_stiffness is not None:
+            kint = self.intact_stiffness
+        else:
+            kint = k0 if self.kind == "rough" else cn
+        m = self.exponent
+        if m == 1.0:
+            if self.kind == "rough":          # constant stiffness: capped at K_intact if above
+                cs = np.inf if cn <= kint else 0.0
+            elif cn > kint * (1 + 1e-12):
+                raise ValueError(
+                    f"ContactParams.penalty = {cn!r} exceeds intact_stiffness = {kint!r}; "
+                    "allowed: penalty <= intact stiffness (a crack stiffer than the bond would "
+                    "create energy as damage grows in compression; raise intact_stiffness too)")
+            else:
+                cs = np.inf
+        else:  # closure at which the crack stiffness C_N m c^(m-1) reaches K_intact (the cap)
+            cs = (kint / (cn * m)) ** (1.0 / (m - 1.0))
         return np.array([
-            k0 if self.intact_stiffness is None else self.intact_stiffness,
-            k0 if self.penalty is None else self.penalty,
+            kint,
+            cn,
             coh.lambda_max * coh.l_Nc if self.g_ref is None else self.g_ref,
-            self.exponent,
+            m,
+            cs,
         ])
 
 

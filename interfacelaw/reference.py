@@ -156,25 +156,36 @@ def _evaluate(law, gap, state, n, d, sig, tau, lN, lT, lm):
     # ---- 1.3 contact ---------------------------------------------------------------------
     # (a law without contact: a_N = 0 and da_N = 0 for g_N < 0, so F_N = 0 and its row is 0)
     if law.contact is not None:
-        K, C, gref, m = law.contact.as_array(law.cohesive)
+        K, C, gref, m, cs = law.contact.as_array(law.cohesive)
         comp = gN < 0.0
         om = 1.0 - omD * lm * s                       # omega
         # d omega/dg = lm (s dD/dg - (1-D) ds/dg)
         dom = lm * (s[:, None] * dDdg - omD[:, None] * ds)
         z = np.where(comp, -gN / gref, 0.0)           # -g_N/g_ref >= 0
-        if m == 1.0:
-            p = -C * gref * z                         # p = C g_N
-            dp = np.full(n, C)                        # p' = C
-        else:
-            p = -C * gref * z ** m                    # p = -C g_ref (-g_N/g_ref)^m
-            dp = C * m * z ** (m - 1.0)               # p' = C m (-g_N/g_ref)^(m-1)
+        # p = -C g_ref z^m up to z* = cs, then stiffness K (the cap): docs §1.3
+        below = z <= cs
+        zc = np.where(below, z, cs if np.isfinite(cs) else 0.0)
+        csm = zc ** m
+        p = np.where(below, -C * gref * z ** m, -(C * csm + K * (z - zc)) * gref)
+        dp = np.where(below, C * m * z ** (m - 1.0), K)
+        Pi = np.where(below, C * gref * gref * z ** (m + 1.0) / (m + 1.0),
+                      gref * gref * (C * csm * zc / (m + 1.0) + C * csm * (z - zc)
+                                     + 0.5 * K * (z - zc) ** 2))
         FN = (1.0 - om) * K * gN + om * p
         # dF_N/dg = ((1-omega) K + omega p') e_N + (p - K g_N) d omega/dg
         dFN = (p - K * gN)[:, None] * dom
         dFN[:, 0] += (1.0 - om) * K + om * dp
         F[:, 0] = np.where(comp, FN, F[:, 0])
         T[:, 0, :] = np.where(comp[:, None], dFN, T[:, 0, :])
+        # released stored energy when bonded area becomes crack area at fixed g_N (docs §1.3):
+        # (omega - omega_old)(K g_N^2/2 - Pi(g_N)),  Pi = C g_ref^2 z^(m+1)/(m+1)
+        s_old = np.where(k_old <= lm, 1.0 / lm,
+                         np.where(k_old >= 1.0, 0.0,
+                                  (1.0 - k_old) / (np.where(k_old > 0, k_old, 1.0) * (1.0 - lm))))
+        om_old = 1.0 - (1.0 - D_old) * lm * s_old
+        diss_c = np.where(comp, (om - om_old) * (0.5 * K * gN * gN - Pi), 0.0)
     else:
+        diss_c = np.zeros(n)
         dFN = np.zeros((n, d))
 
     # ---- 1.4 friction --------------------------------------------------------------------
@@ -222,7 +233,7 @@ def _evaluate(law, gap, state, n, d, sig, tau, lN, lT, lm):
     Q = sig * gNp * gNp / lN + tau * lN * gT * gT / (lT * lT)
     dDD = D_new - D_old
     dphi_D = np.where((dDD != 0.0) & (s > 0.0), 0.5 * s * Q * dDD, 0.0)
-    diss = diss_old + dphi_k + dphi_D + diss_f
+    diss = diss_old + dphi_k + dphi_D + diss_f + diss_c
 
     new = InterfaceState(kap, D_new, sep, sp_new, diss)
     return F, T, new

@@ -139,9 +139,46 @@ def test_intact_interface_is_symmetric_in_compression_rough_crack_starts_soft():
     # p' = m C_N c^(m-1) = 2 K0 (1e-9/0.2): vanishes linearly at first contact
     assert T[0, 0, 0] == pytest.approx(2 * COH.k_normal * 5e-9, rel=1e-9)
     gref = COH.lambda_max * COH.l_Nc
+    K0 = COH.k_normal
+    # power law below the cap (stiffness 2 K0 c reaches K0 at c* = 0.5), K0 beyond, C1 at c*
+    F, T, _ = law.evaluate(np.array([[-0.25 * gref, 0.0]]), deb)
+    assert F[0, 0] == pytest.approx(-K0 * gref / 16, rel=1e-12)
+    assert T[0, 0, 0] == pytest.approx(0.5 * K0, rel=1e-12)
     F, T, _ = law.evaluate(np.array([[-gref, 0.0]]), deb)
-    assert F[0, 0] == pytest.approx(-COH.sigma_max, rel=1e-12)   # closed by g_ref: sigma_max
-    assert T[0, 0, 0] == pytest.approx(2 * COH.k_normal, rel=1e-12)
+    assert F[0, 0] == pytest.approx(-0.75 * K0 * gref, rel=1e-12)
+    assert T[0, 0, 0] == pytest.approx(K0, rel=1e-12)
+    e = 1e-9 * gref
+    Fa, _, _ = law.evaluate(np.array([[-0.5 * gref + e, 0.0], [-0.5 * gref - e, 0.0]]),
+                            deb.take([0, 0]))
+    assert abs(Fa[0, 0] - Fa[1, 0]) <= 2 * e * K0 * 1.0001
+
+
+def test_debonding_in_compression_releases_energy_never_creates_it():
+    """Shear to debonding under a deep closure g_N (fixed): tangential work W_T = stick-spring
+    energy + dissipated - released normal energy; the bonded area turning into crack area
+    releases (omega - omega_old)(K g^2/2 - Pi) >= 0 (the capped crack law stores less)."""
+    K0 = COH.k_normal
+    gN = -3 * COH.l_Nc
+    gref = COH.lambda_max * COH.l_Nc
+    c, cs = -gN / gref, 0.5                       # rough default: stiffness 2 K0 c capped at c*
+    Pi_rough = gref ** 2 * (K0 * cs ** 2 * cs / 3 + K0 * cs ** 2 * (c - cs)
+                            + 0.5 * K0 * (c - cs) ** 2)
+    for kind, release in (("linear", 0.0), ("rough", 0.5 * K0 * gN ** 2 - Pi_rough)):
+        law = InterfaceLaw(COH, contact=ContactParams(kind), friction=FrictionParams(0.5))
+        g = np.linspace(0, 1.5 * COH.l_Tc, 3001)
+        F, s = drive(law, np.c_[np.full_like(g, gN), g])
+        W = np.sum(0.5 * (F[1:, 1] + F[:-1, 1]) * np.diff(g))
+        assert s.debonded[0] and release >= 0.0
+        spring = 0.5 * F[-1, 1] ** 2 / COH.k_tangential     # stick spring (|F_T| < f|F_N|)
+        assert abs(F[-1, 1]) < 0.5 * abs(F[-1, 0])
+        # trapezoid error from the kink cells, O(h^2) at 3000 steps: 1e-4 relative
+        assert s.dissipated[0] == pytest.approx(W - spring + release, rel=1e-4)
+        assert s.dissipated[0] >= COH.G_II * (1 - 1e-9)
+
+
+def test_linear_penalty_stiffer_than_intact_bond_is_refused():
+    with pytest.raises(ValueError, match=r"penalty = 200000000000.0 exceeds intact_stiffness = 100000000000.0; allowed"):
+        InterfaceLaw(COH, contact=ContactParams(penalty=2e11, intact_stiffness=1e11))
 
 
 # ---------------------------------------------------------------------------------------------
