@@ -20,7 +20,7 @@ $(STAMP): pyproject.toml
 venv: $(STAMP)
 
 run: $(STAMP)
-	$(VPY) -m ngs_driver run koyna
+	$(VPY) -m ngs_driver run-paper koyna --out results
 
 test: $(STAMP)
 	$(VPY) -m pytest -q --benchmark-disable tests

@@ -79,6 +79,9 @@ class GroundMotion:
     scale: float = _f(1.0, lo=0.0, hi=100.0)
     components: tuple = _f(("x", "y"), choices=("x", "y"))
     start: float = _f(0.0, lo=0.0, hi=1e4, doc="record time at which the analysis starts")
+    units: str = _f("m/s2", choices=("g", "m/s2", "cm/s2"),
+                    doc="units of a user record file (two/three-column text); .AT2 is in g")
+    baseline: bool = _f(True, doc="baseline-correct a user record (the shipped one already is)")
 
 
 @dataclass(frozen=True)
@@ -107,7 +110,9 @@ class Interface:
     friction: float = _f(0.3, lo=0.0, hi=5.0)
     alpha: float = _f(2.0, lo=0.0, hi=20.0)
     beta: float = _f(0.0, lo=0.0, hi=20.0)
-    g_max: float = _f(1.0e-3, lo=0.0, hi=10.0, lo_open=True)
+    g_max: float = _f(6.6667e-4, lo=0.0, hi=10.0, lo_open=True,
+                      doc="cumulative separation to failure [m]; not in the paper: default "
+                          "4 l_Nc of the reference parameters (Roe & Siegmund 2003)")
     F_th: float = _f(0.0, lo=0.0, hi=1e9)
     contact: str = _f("linear", choices=("linear", "rough", "none"))
     scaling: bool = _f(True)
@@ -117,6 +122,8 @@ class Interface:
 class Output:
     dir: str = _f("out/koyna")
     vtk_every: int = _f(0, lo=0, hi=10 ** 9, doc="0: no VTK output")
+    checkpoint_every: int = _f(250, lo=0, hi=10 ** 9, doc="steps between checkpoints; 0: none")
+    snapshots: int = _f(10, lo=1, hi=1000, doc="number of D(x) snapshots over the record")
 
 
 @dataclass(frozen=True)

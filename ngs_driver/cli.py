@@ -1,0 +1,210 @@
+"""Command line: ``dam-seismic`` / ``python -m ngs_driver``.
+
+    run SCENE [--set key=value ...] [--resume] [--dry-run] [--out DIR] [--quiet]
+    run-paper [SCENE] [--set ...] [--out DIR] [--quiet]   alpha = 2 and alpha = 1 + comparison
+    compare DIR_A DIR_B [--out DIR]                        comparison of two finished runs
+    modal SCENE [--set ...] [--out DIR] [-n N]             natural frequencies -> modal.json
+    verify [--fast]                                        verification/run_all.py
+    bench                                                  pytest benchmarks (tests/bench)
+
+Exit codes: 0 success, 1 run failure (solver, I/O), 2 bad input (scene, --set, arguments),
+3 interrupted.  Input errors are reported before any results directory is created.
+NGSolve is imported only when a model is built (never by --dry-run).
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import pathlib
+import subprocess
+import sys
+
+ROOT = pathlib.Path(__file__).resolve().parent.parent
+
+
+class _Parser(argparse.ArgumentParser):
+    def error(self, message):          # exit code 2 with the usage (argparse default)
+        self.print_usage(sys.stderr)
+        self.exit(2, f"{self.prog}: error: {message}\n")
+
+
+def _add_scene_args(p, scene_default=None):
+    if scene_default is None:
+        p.add_argument("scene", help="shipped scene name (e.g. koyna) or path to a .toml file")
+    else:
+        p.add_argument("scene", nargs="?", default=scene_default,
+                       help=f"shipped scene name or .toml path (default {scene_default})")
+    p.add_argument("--set", action="append", default=[], dest="overrides", metavar="KEY=VALUE",
+                   help="override a scene key, e.g. --set interface.alpha=1 (repeatable)")
+    p.add_argument("--out", default=None, help="results directory (default: output.dir)")
+
+
+def build_parser() -> argparse.ArgumentParser:
+    ap = _Parser(prog="dam-seismic", description=__doc__,
+                 formatter_class=argparse.RawDescriptionHelpFormatter)
+    sub = ap.add_subparsers(dest="cmd", required=True, parser_class=_Parser)
+    p = sub.add_parser("run", help="static + seismic run of a scene")
+    _add_scene_args(p)
+    p.add_argument("--resume", action="store_true", help="continue from the last checkpoint")
+    p.add_argument("--dry-run", action="store_true",
+                   help="print the resolved scene and what would be built; build nothing")
+    p.add_argument("--quiet", action="store_true", help="no progress bar or messages")
+    p = sub.add_parser("run-paper", help="run alpha = 2 and alpha = 1 and compare (make run)")
+    _add_scene_args(p, "koyna")
+    p.add_argument("--quiet", action="store_true")
+    p.add_argument("--resume", action="store_true", help="resume unfinished runs")
+    p.add_argument("--dry-run", action="store_true")
+    p = sub.add_parser("compare", help="compare finished runs (Fig. 10/11 overlays, table)")
+    p.add_argument("dirs", nargs="+", help="results directories (alpha = 2 first)")
+    p.add_argument("--out", default="out/koyna_compare")
+    p = sub.add_parser("modal", help="natural frequencies -> modal.json")
+    _add_scene_args(p)
+    p.add_argument("-n", type=int, default=6, help="number of modes")
+    p = sub.add_parser("verify", help="verification studies (verification/run_all.py)")
+    p.add_argument("--fast", action="store_true")
+    p.add_argument("--out", default=None)
+    sub.add_parser("bench", help="benchmarks (pytest tests/bench)")
+    return ap
+
+
+def _err(msg: str, code: int = 2) -> int:
+    print(f"dam-seismic: error: {msg}", file=sys.stderr)
+    return code
+
+
+def _load(scene, overrides):
+    from .scene import load_scene
+    return load_scene(scene, overrides)
+
+
+def _dry_run(sc, outdir) -> int:
+    from .koyna import describe
+    d = describe(sc)
+    d["will_build"]["output_dir"] = str(outdir)
+    print(json.dumps(d, indent=2))
+    return 0
+
+
+def cmd_run(a) -> int:
+    try:
+        sc = _load(a.scene, a.overrides)
+    except ValueError as e:
+        return _err(str(e))
+    outdir = pathlib.Path(a.out or sc.output.dir)
+    if a.dry_run:
+        return _dry_run(sc, outdir)
+    if a.resume and not (outdir / "checkpoint.json").exists():
+        return _err(f"--resume: no checkpoint in {outdir}; allowed: the results directory of an "
+                    "interrupted run with output.checkpoint_every > 0")
+    return _run_one(sc, outdir, a.resume, not a.quiet)
+
+
+def _run_one(sc, outdir, resume, progress) -> int:
+    from .koyna import run
+    try:
+        run(sc, outdir, resume=resume, progress=progress)
+    except KeyboardInterrupt:
+        print(f"\ninterrupted; continue with --resume (results dir {outdir})", file=sys.stderr)
+        return 3
+    except (ValueError, FileNotFoundError) as e:
+        return _err(str(e))
+    except RuntimeError as e:          # SolverError and friends
+        return _err(f"run failed: {e}", 1)
+    return 0
+
+
+def paper_dirs(base: pathlib.Path) -> dict:
+    return {"alpha = 2": base / "koyna_alpha2", "alpha = 1": base / "koyna_alpha1"}
+
+
+def cmd_run_paper(a) -> int:
+    base = pathlib.Path(a.out or "out")
+    scenes = {}
+    try:
+        for (lab, d), alpha in zip(paper_dirs(base).items(), (2.0, 1.0)):
+            scenes[lab] = (_load(a.scene, list(a.overrides) + [f"interface.alpha={alpha}"]), d)
+    except ValueError as e:
+        return _err(str(e))
+    if a.dry_run:
+        for lab, (sc, d) in scenes.items():
+            print(f"# {lab}")
+            _dry_run(sc, d)
+        print(f"# comparison -> {base / 'koyna_compare'}")
+        return 0
+    for lab, (sc, d) in scenes.items():
+        resume = a.resume and (d / "checkpoint.json").exists() \
+            and not (d / "summary.json").exists()
+        if a.resume and (d / "summary.json").exists():
+            print(f"{lab}: {d} is complete, not rerun")
+            continue
+        rc = _run_one(sc, d, resume, not a.quiet)
+        if rc:
+            return rc
+    return _compare({lab: d for lab, (sc, d) in scenes.items()}, base / "koyna_compare")
+
+
+def _compare(runs: dict, out) -> int:
+    from .outputs import compare_runs
+    for d in runs.values():
+        if not (pathlib.Path(d) / "summary.json").exists():
+            return _err(f"compare: {d} has no summary.json (run not finished)")
+    files = compare_runs({k: str(v) for k, v in runs.items()}, out)
+    print(f"comparison written to {out}: {', '.join(files)}")
+    print((pathlib.Path(out) / "results.md").read_text())
+    return 0
+
+
+def cmd_compare(a) -> int:
+    runs = {}
+    for d in a.dirs:
+        p = pathlib.Path(d)
+        try:
+            s = json.loads((p / "summary.json").read_text())
+            runs[f"alpha = {s['scene']['interface']['alpha']:g}"] = p
+        except (OSError, ValueError, KeyError):
+            return _err(f"compare: {d} has no readable summary.json (run not finished)")
+    return _compare(runs, a.out)
+
+
+def cmd_modal(a) -> int:
+    try:
+        sc = _load(a.scene, a.overrides)
+    except ValueError as e:
+        return _err(str(e))
+    from .modal import run_modal
+    out = pathlib.Path(a.out or sc.output.dir)
+    md, res, damp = run_modal(sc, out, a.n)
+    print(f"scene {sc.name}: nfree {md.nfree}, interface points {md.interface.npts}")
+    print("frequencies [Hz]:", " ".join(f"{f:.4f}" for f in res.frequencies_hz))
+    print(f"Rayleigh a0 = {damp['a0']:.6g} 1/s, a1 = {damp['a1']:.6g} s "
+          f"({damp['source']}: {damp['f_a']:.3f}, {damp['f_b']:.3f} Hz)")
+    print(f"wrote {out / 'modal.json'}")
+    return 0
+
+
+def cmd_verify(a) -> int:
+    sys.path.insert(0, str(ROOT / "verification"))
+    try:
+        import run_all
+    except ImportError:
+        return _err("verify: verification/run_all.py not found (run from a source checkout)", 1)
+    argv = (["--fast"] if a.fast else []) + (["--out", a.out] if a.out else [])
+    return int(run_all.main(argv) or 0)
+
+
+def cmd_bench(a) -> int:
+    bench = ROOT / "tests" / "bench"
+    if not bench.exists():
+        return _err("bench: tests/bench not found (run from a source checkout)", 1)
+    return subprocess.call([sys.executable, "-m", "pytest", "-q", str(bench), "--benchmark-only",
+                            f"--benchmark-json={ROOT / '.benchmarks.json'}"], cwd=ROOT)
+
+
+def main(argv=None) -> int:
+    a = build_parser().parse_args(argv)
+    return {"run": cmd_run, "run-paper": cmd_run_paper, "compare": cmd_compare,
+            "modal": cmd_modal, "verify": cmd_verify, "bench": cmd_bench}[a.cmd](a)
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,102 @@
+"""Command line (ngs_driver.cli): dry run without NGSolve, bad input, modal, run, run-paper."""
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from ngs_driver.cli import main
+
+ROOT = Path(__file__).resolve().parent.parent
+
+
+def _env():
+    env = dict(os.environ)
+    env.setdefault("NUMBA_CACHE_DIR", str(ROOT / ".numba_cache"))
+    env.setdefault("MPLBACKEND", "Agg")
+    env["PYTHONPATH"] = str(ROOT) + os.pathsep + env.get("PYTHONPATH", "")
+    return env
+
+
+def test_dry_run_does_not_import_ngsolve(tmp_path):
+    code = ("import sys, json\n"
+            "from ngs_driver.cli import main\n"
+            f"rc = main(['run', 'koyna', '--dry-run', '--out', {str(tmp_path / 'x')!r}])\n"
+            "print('RC', rc, 'NGSOLVE', 'ngsolve' in sys.modules, 'NETGEN', "
+            "'netgen' in sys.modules)\n")
+    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                       env=_env(), cwd=ROOT, timeout=120)
+    assert r.returncode == 0, r.stderr
+    assert "RC 0 NGSOLVE False NETGEN False" in r.stdout
+    d = json.loads(r.stdout[:r.stdout.rindex("}") + 1])
+    assert d["scene"]["name"] == "koyna"
+    law = d["will_build"]["law"]
+    assert law["contact"] == "linear" and law["friction"] and law["damage"] and law["scaling"]
+    assert not (tmp_path / "x").exists()
+
+
+def test_bad_set_key_exit_2(tmp_path):
+    out = tmp_path / "res"
+    r = subprocess.run([sys.executable, "-m", "ngs_driver", "run", "koyna_smoke", "--set",
+                        "interface.alfa=1", "--out", str(out)], capture_output=True, text=True,
+                       env=_env(), cwd=ROOT, timeout=120)
+    assert r.returncode == 2
+    assert "interface.alfa" in r.stderr and "alpha" in r.stderr
+    assert not out.exists()
+
+
+@pytest.mark.parametrize("argv, words", [
+    (["run", "koyna_smoke", "--set", "interface.alpha=-1"], ["interface.alpha", "out of range"]),
+    (["run", "koyna_smoke", "--set", "output.checkpoint_every=1.5"],
+     ["output.checkpoint_every", "integer"]),
+    (["run", "no_such_scene"], ["no_such_scene", "shipped scenes"]),
+    (["modal", "koyna_smoke", "--set", "mesh.order=0"], ["mesh.order"]),
+])
+def test_bad_input_messages(tmp_path, capsys, argv, words):
+    rc = main(argv + ["--out", str(tmp_path / "r")])
+    err = capsys.readouterr().err
+    assert rc == 2
+    for w in words:
+        assert w in err
+    assert not (tmp_path / "r" / "summary.json").exists()
+
+
+def test_resume_without_checkpoint(tmp_path, capsys):
+    rc = main(["run", "koyna_smoke", "--resume", "--out", str(tmp_path / "r")])
+    assert rc == 2 and "no checkpoint" in capsys.readouterr().err
+
+
+def test_unknown_subcommand():
+    with pytest.raises(SystemExit) as e:
+        main(["frobnicate"])
+    assert e.value.code == 2
+
+
+def test_modal_writes_json(tmp_path):
+    pytest.importorskip("ngsolve")
+    assert main(["modal", "koyna_smoke", "--out", str(tmp_path)]) == 0
+    d = json.loads((tmp_path / "modal.json").read_text())
+    f = d["frequencies_hz"]
+    assert len(f) == 6 and all(b >= a > 0 for a, b in zip(f, f[1:]))
+
+
+def test_run_paper_smoke(tmp_path, capsys):
+    """run-paper on the smoke scene: both alphas, the comparison figures and the table."""
+    pytest.importorskip("ngsolve")
+    rc = main(["run-paper", "koyna_smoke", "--out", str(tmp_path), "--quiet"])
+    assert rc == 0
+    for d in ("koyna_alpha2", "koyna_alpha1"):
+        s = json.loads((tmp_path / d / "summary.json").read_text())
+        assert s["scene"]["interface"]["alpha"] == (2.0 if d.endswith("2") else 1.0)
+    cmp = tmp_path / "koyna_compare"
+    for f in ("fig10_crest_displacement.png", "fig11_damage_profiles.png", "crack_length.png",
+              "results.md"):
+        assert (cmp / f).exists(), f
+    md = (cmp / "results.md").read_text()
+    assert "SYNTHETIC" in md and "D(alpha=2) ≤ D(alpha=1)²" in md and "6.0 s" in md
+    # compare alone on the finished runs
+    assert main(["compare", str(tmp_path / "koyna_alpha2"), str(tmp_path / "koyna_alpha1"),
+                 "--out", str(tmp_path / "c2")]) == 0
+    assert (tmp_path / "c2" / "results.md").exists()

@@ -1,0 +1,135 @@
+"""The Koyna run (ngs_driver.koyna) on the tiny smoke scene: outputs, static state, resume."""
+import json
+import math
+
+import numpy as np
+import pytest
+
+pytest.importorskip("ngsolve")
+
+from ngs_driver.koyna import (RunInterrupted, build_law, crack_measures, describe,  # noqa: E402
+                              run)
+from ngs_driver.model import build_from_scene  # noqa: E402
+from ngs_driver.scene import load_scene  # noqa: E402
+
+SMOKE = "koyna_smoke"
+
+
+@pytest.fixture(scope="module")
+def smoke_model():
+    return build_from_scene(load_scene(SMOKE))
+
+
+@pytest.fixture(scope="module")
+def smoke_run(tmp_path_factory, smoke_model):
+    out = tmp_path_factory.mktemp("smoke")
+    s = run(load_scene(SMOKE), out, progress=False, model=smoke_model, plots=True)
+    return out, s
+
+
+def _finite(obj):
+    if isinstance(obj, dict):
+        return all(_finite(v) for v in obj.values())
+    if isinstance(obj, list):
+        return all(_finite(v) for v in obj)
+    if isinstance(obj, float):
+        return math.isfinite(obj)
+    return True
+
+
+def test_smoke_outputs(smoke_run):
+    out, s = smoke_run
+    d = json.loads((out / "summary.json").read_text())
+    for k in ("scene", "ground_motion", "formulation", "mesh", "dofs", "frequencies_hz",
+              "rayleigh", "characteristic_times", "timings", "solver_totals", "environment",
+              "static", "results", "label"):
+        assert k in d, k
+    assert d["ground_motion"]["synthetic"] is True and "synthetic" in d["label"].lower()
+    assert d["formulation"].startswith("relative")
+    assert len(d["frequencies_hz"]) == 6 and d["frequencies_hz"][0] > 0
+    assert d["rayleigh"]["a0"] > 0 and d["rayleigh"]["a1"] > 0
+    ch = d["characteristic_times"]
+    assert ch["t1"] == pytest.approx(2500 * math.sqrt(50e9 / 2500) * (2 * 250 / 3e6) / 6e6)
+    assert ch["t2"] == pytest.approx(70 / math.sqrt(50e9 / 2500))
+    for k in ("static", "dynamic", "per_step_median"):
+        assert d["timings"][k] > 0
+    assert d["n_steps"] == 50 and d["scene"]["interface"]["g_max"] == 6.6667e-4
+    assert _finite(d)
+    for f in ("timeseries.csv", "crest_displacement.csv", "damage_profiles.csv",
+              "final_state.npz", "fig10_crest_displacement.png", "fig11_damage_profiles.png",
+              "crack_length.png", "fig12_heel_von_mises.png", "fig8b_mesh.png"):
+        assert (out / f).exists(), f
+    assert not list(out.glob("checkpoint*")), "checkpoints are removed after a complete run"
+    ts = (out / "timeseries.csv").read_text()
+    assert "SYNTHETIC" in ts and "relative" in ts
+    rows = [ln for ln in ts.splitlines() if not ln.startswith("#")]
+    assert len(rows) == 51
+    # the smoke record (strong phase, x3) makes the interface nonlinear
+    assert d["results"]["max_D"] > 0 and d["solver_totals"]["iterations"] >= 50
+
+
+def test_crack_measures():
+    class S:
+        debonded = np.array([True, True, False, True])
+    w = np.array([0.1, 0.2, 0.3, 0.4])
+    tot, heel, n = crack_measures(S, w)
+    assert (tot, heel, n) == (pytest.approx(0.7), pytest.approx(0.3), 3)
+    S.debonded = np.array([False, True, True, True])
+    assert crack_measures(S, w)[1] == 0.0
+    S.debonded = np.ones(4, bool)
+    assert crack_measures(S, w)[1] == pytest.approx(1.0)
+
+
+def test_static_equals_linear_when_elastic(tmp_path, smoke_model):
+    """Dead load + reservoir with an intact interface: the solver's static state is the linear
+    solution with the law's initial stiffness.  g_max = 10 m makes the Eq. 7 damage of the
+    single static increment negligible (~1e-11; with the default g_max the static opening
+    gives D ~ 2e-3 at the heel for alpha = 2, the law is then not exactly linear)."""
+    sc = load_scene(SMOKE, ["interface.g_max=10.0", "time.duration=0.004"])
+    s = run(sc, tmp_path, progress=False, model=smoke_model, plots=False)
+    st = s["static"]
+    law = build_law(sc)
+    assert st["max_normal_traction"] < sc.interface.sigma_max
+    assert st["max_kappa"] < law.cohesive.lambda_max          # on the initial elastic branch
+    u = smoke_model.static_solution(law.cohesive.k_normal, law.cohesive.k_tangential)
+    cx, cy = smoke_model.crest_dofs
+    scale = math.hypot(u[cx], u[cy])
+    assert abs(st["crest_ux"] - u[cx]) <= 1e-8 * scale
+    assert abs(st["crest_uy"] - u[cy]) <= 1e-8 * scale
+
+
+def test_resume_equals_uninterrupted(tmp_path, smoke_model):
+    sc = load_scene(SMOKE)                      # checkpoint_every = 10, 50 steps
+    a = tmp_path / "a"
+    b = tmp_path / "b"
+    run(sc, a, progress=False, model=smoke_model, plots=False)
+    with pytest.raises(RunInterrupted):
+        run(sc, b, progress=False, model=smoke_model, plots=False, max_steps=27)
+    assert not (b / "summary.json").exists()
+    assert json.loads((b / "checkpoint.json").read_text())["step"] == 20
+    s = run(sc, b, resume=True, progress=False, model=smoke_model, plots=False)
+    assert s["resumed_from_step"] == 20
+    za, zb = np.load(a / "final_state.npz"), np.load(b / "final_state.npz")
+    for k in za.files:
+        np.testing.assert_allclose(zb[k], za[k], rtol=1e-12, atol=1e-12 * np.abs(za[k]).max()
+                                   + 1e-300, err_msg=k)
+    ta, tb = (a / "timeseries.csv").read_text(), (b / "timeseries.csv").read_text()
+    strip = [ln.split(",")[:-1] for ln in ta.splitlines()], \
+        [ln.split(",")[:-1] for ln in tb.splitlines()]   # last column = wall time
+    assert strip[0] == strip[1]
+
+
+def test_resume_other_scene_refused(tmp_path, smoke_model):
+    sc = load_scene(SMOKE)
+    with pytest.raises(RunInterrupted):
+        run(sc, tmp_path, progress=False, model=smoke_model, plots=False, max_steps=12)
+    other = load_scene(SMOKE, ["interface.alpha=1.0"])
+    with pytest.raises(ValueError, match="different scene"):
+        run(other, tmp_path, resume=True, progress=False, model=smoke_model, plots=False)
+
+
+def test_describe_no_build():
+    d = describe(load_scene("koyna"))
+    assert d["will_build"]["law"]["friction"] is True
+    assert d["will_build"]["law"]["scaling"] is True
+    assert d["scene"]["interface"]["g_max"] == pytest.approx(4 * 2 * 250 / 3e6, rel=1e-4)
