@@ -11,7 +11,7 @@
   :func:`closure_reopening`, :func:`constant_amplitude_cycles`, :func:`shear_under_pressure`.
 * Helpers: :func:`cycles_to_failure`, :func:`tangent_fd_error`, and the proposed step-size
   objective damage form :func:`objective_damage_increment` / :func:`damage_objective`
-  (docs/parts/drivers.md; not the law's default).
+  (docs/decisions.md §3; not the law's default).
 
 Conventions: component 0 is normal (opening / tension positive), 1 (and 2 in 3D) tangential.
 Every array of a :class:`History` has the increment index first; a single-point run has shapes
@@ -655,9 +655,9 @@ def tangent_fd_error(law: InterfaceLaw, gap, state: InterfaceState, rel_step: fl
 
 
 # ------------------------------------------------------------------------------------------
-# proposed step-size objective damage form (not the law's default; docs/parts/drivers.md)
+# proposed step-size objective damage form (not the law's default; docs/decisions.md §3)
 def objective_damage_increment(D_old, dg, B, alpha, g_max):
-    """Step-size objective variant of Eq. 7 (proposal, docs/parts/drivers.md).
+    """Step-size objective variant of Eq. 7 (proposal, docs/decisions.md §3).
 
     The paper's ``ΔD = (Δg/g_max)^α B`` sums powers of increments, so for α ≠ 1 the damage
     after a given history scales with (increments)^(1-α). The rate form

@@ -9,7 +9,7 @@ Equation (relative formulation, free DOFs, plane strain):
 B (2 npts x ndof, CSR): gap of point p  g_p = (g_N, g_T) = B[2p:2p+2] @ u;  W = diag(w) with w
 (npts,) the integration weights; t = law.evaluate(g) the interface traction (interfacelaw).
 
-Condensed method (docs/parts/solver.md).  K0 = diag(k_N, k_T) the law's initial elastic
+Condensed method (docs/decisions.md §6).  K0 = diag(k_N, k_T) the law's initial elastic
 stiffness (frozen at construction / ``set_law(..., refactor=True)``), phi(g) = t(g) - K0 g the
 nonlinear correction (zero at every point still in its initial elastic state).  For the step
 size h the effective matrix

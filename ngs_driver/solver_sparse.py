@@ -1,6 +1,6 @@
 """Sparse direct factorisation for the interface solver: SuperLU (scipy.sparse.linalg.splu) for
 the factorisation, and numba triangular solves on its L and U factors (SuperLU's own solve is
-2-4x slower from Python on these matrices; measured in docs/parts/solver.md).
+2-4x slower from Python on these matrices; measured in docs/decisions.md §6).
 
     Pr A Pc = L U     (scipy's convention: Pr[perm_r[i], i] = 1, Pc[i, perm_c[i]] = 1)
 """
