@@ -395,6 +395,8 @@ def run(scene, outdir=None, resume: bool = False, progress: bool = True,
                desc=f"{scene.name} a={scene.interface.alpha:g}", dynamic_ncols=True)
     t_dyn0 = time.perf_counter()
     steps_this_call = 0
+    stopped = None
+    stop_slip = scene.time.stop_slip
     try:
         for k in range(k_start + 1, n_steps + 1):
             b_used = update_law(solver.state)
@@ -427,6 +429,17 @@ def run(scene, outdir=None, resume: bool = False, progress: bool = True,
                                     f"crack={crack_heel:.3f}m Dheel={st.damage[0]:.3f}",
                                     refresh=False)
             steps_this_call += 1
+            if stop_slip > 0 and ndeb == iface.npts:
+                slip = abs(float(np.dot(w, solver.g[:, 1]) / w.sum()))
+                if slip > stop_slip:
+                    stopped = {"reason": "failure by sliding: the whole interface is debonded "
+                                         f"and the mean base slip {slip:.3g} m exceeds "
+                                         f"time.stop_slip = {stop_slip:g} m (small-displacement "
+                                         "kinematics no longer hold)",
+                               "t": float(times[k]), "step": k}
+                    bar.write(f"[{scene.name}] stopped at t = {times[k]:.3f} s: "
+                              + stopped["reason"]) if progress else None
+                    break
             if ckp.due(k):
                 checkpoint(k, dyn_wall_before + time.perf_counter() - t_dyn0)
             if max_steps is not None and steps_this_call >= max_steps and k < n_steps:
@@ -459,6 +472,7 @@ def run(scene, outdir=None, resume: bool = False, progress: bool = True,
                           "peak_g": list(gm.peak_g()),
                           "start": scene.ground_motion.start},
         "formulation": FORMULATION,
+        "stopped": stopped,
         "crest_point": list(model.crest_point),
         "crest_displacement_note": "upstream crest corner, relative to the rigid ground "
                                    "(rock bottom); includes the static displacement",

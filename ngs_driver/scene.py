@@ -88,8 +88,11 @@ class GroundMotion:
 class Time:
     dt: float = _f(0.002, lo=0.0, hi=1.0, lo_open=True)
     duration: float = _f(10.0, lo=0.0, hi=1e4, lo_open=True)
-    newmark_beta: float = _f(0.25, lo=0.0, hi=0.5)
+    newmark_beta: float = _f(0.25, lo=0.0, hi=0.5, lo_open=True)
     newmark_gamma: float = _f(0.5, lo=0.5, hi=1.0)
+    stop_slip: float = _f(0.05, lo=0.0, hi=1e3,
+                          doc="stop when every interface point is debonded and the mean base "
+                              "slip exceeds this [m] (failure by sliding); 0 disables")
 
 
 @dataclass(frozen=True)
