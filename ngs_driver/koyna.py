@@ -34,7 +34,7 @@ from .io import Checkpointer, atomic_savez, atomic_write_json, environment_info
 
 FORMULATION = ("relative (rock bottom fixed, ground acceleration as effective inertial load "
                "-M r a_g(t); displacements relative to the rigid ground motion)")
-DEFAULT_RECORDS = ("koyna1967", "synthetic", "default")
+DEFAULT_RECORDS = ("synthetic", "default")
 INTERFACE_LENGTH_A0 = 70.0          # a0 of Eq. 11: the whole (bonded) interface [m]
 
 # per-step histories (name -> dtype); the CSV column order

@@ -75,7 +75,7 @@ class Loads:
 
 @dataclass(frozen=True)
 class GroundMotion:
-    record: str = _f("koyna1967")
+    record: str = _f("synthetic")
     scale: float = _f(1.0, lo=0.0, hi=100.0)
     components: tuple = _f(("x", "y"), choices=("x", "y"))
     start: float = _f(0.0, lo=0.0, hi=1e4, doc="record time at which the analysis starts")
