@@ -20,11 +20,13 @@ Every array of a :class:`History` has the increment index first; a single-point 
 from __future__ import annotations
 
 import math
+import io
 import os
-import tempfile
-from dataclasses import dataclass, field, fields, replace
+from dataclasses import dataclass, field, fields
 
 import numpy as np
+
+from ._atomic import atomic_write_text
 
 from .law import InterfaceLaw, InterfaceState
 
@@ -145,17 +147,9 @@ class History:
                 cols.append(getattr(self, name).reshape(m, -1)[:, p])
                 names.append(name + suf)
         data = np.column_stack([np.asarray(c, dtype=float) for c in cols])
-        d = os.path.dirname(os.path.abspath(path))
-        fd, tmp = tempfile.mkstemp(dir=d, prefix=".tmp_", suffix=".csv")
-        try:
-            with os.fdopen(fd, "w") as fh:
-                np.savetxt(fh, data, delimiter=",", header=",".join(names), comments="",
-                           fmt="%.17g")
-            os.replace(tmp, path)
-        except BaseException:
-            if os.path.exists(tmp):
-                os.unlink(tmp)
-            raise
+        buf = io.StringIO()
+        np.savetxt(buf, data, delimiter=",", header=",".join(names), comments="", fmt="%.17g")
+        atomic_write_text(path, buf.getvalue())
         return path
 
 
@@ -369,7 +363,6 @@ def mixed_control(law: InterfaceLaw, times, targets, control, substeps=1,
         stalled = np.zeros(n, dtype=bool)           # line search found no decrease
         Fi = np.empty((n, dim))
         Ti = np.empty((n, dim, dim))
-        new_i = st.copy()
         it_i = np.zeros(n, dtype=np.int16)
         r_i = np.zeros(n)
         if act.size:

@@ -36,7 +36,7 @@ import scipy.sparse.linalg as sla
 
 from interfacelaw import CohesiveParams, ContactParams, InterfaceLaw
 
-from .model import Material, _block_diag, _to_scipy, build_interface
+from .model import Material, _block_diag, _find_vertex, _to_scipy, build_interface
 
 CHI_KANNINEN = 0.64   # Kanninen (1973) beam on a Winkler foundation: 1/lambda = h / 6^(1/4)
 
@@ -286,15 +286,7 @@ def build_dcb(spec: DCBSpec = DCBSpec(), h_int: float = 0.02, n_gauss: int = 5,
 
 
 def _vertex_at(mesh, x, y, tol=1e-9) -> int:
-    best, bd = -1, np.inf
-    for v in mesh.vertices:
-        p = v.point
-        d = (p[0] - x) ** 2 + (p[1] - y) ** 2
-        if d < bd:
-            best, bd = v.nr, d
-    if bd > tol ** 2 * 1e6:
-        raise ValueError(f"no mesh vertex at ({x}, {y})")
-    return best
+    return _find_vertex(mesh, x, y, tol=tol ** 2 * 1e6)
 
 
 # ------------------------------------------------------------------------------ solver

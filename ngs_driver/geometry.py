@@ -161,7 +161,6 @@ def _koyna_single(foundation, h_heel, h_coarse, h_int, growth, eu, ed, edep, gra
 
     geo = SplineGeometry()
     W = BASE_WIDTH
-    big = 1e99
     # interface stations from heel (0,0) towards the toe (70,0)
     st = _interface_stations(0.0, W, h_heel, h_int, growth, heel_zone=heel_zone)
     ip = [geo.AppendPoint(x, 0.0, maxh=h) for x, h in st]

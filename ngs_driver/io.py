@@ -12,35 +12,15 @@ import os
 import pathlib
 import platform
 import subprocess
-import tempfile
 import time
 from importlib import metadata
 
 import numpy as np
 
+from interfacelaw._atomic import atomic_write_bytes, atomic_write_text
+
 __all__ = ["atomic_write_bytes", "atomic_write_text", "atomic_write_json", "atomic_savez",
            "Checkpointer", "environment_info", "git_revision"]
-
-
-def atomic_write_bytes(path, data: bytes) -> pathlib.Path:
-    path = pathlib.Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    try:
-        with os.fdopen(fd, "wb") as fh:
-            fh.write(data)
-            fh.flush()
-            os.fsync(fh.fileno())
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
-    return path
-
-
-def atomic_write_text(path, text: str) -> pathlib.Path:
-    return atomic_write_bytes(path, text.encode("utf-8"))
 
 
 def _json_default(o):

@@ -23,7 +23,6 @@ from __future__ import annotations
 
 import json
 import math
-import os
 import pathlib
 import time
 from dataclasses import replace
@@ -559,7 +558,7 @@ def format_summary(s: dict) -> str:
     lines = [
         f"[{s['scene']['name']}] done: {s['n_steps']} steps; record {s['label']}",
         f"  Eq. 11: t1 = {ch['t1']:.3e} s, t2 = {ch['t2']:.3e} s (c_L = {ch['c_L']:.0f} m/s)",
-        f"  frequencies [Hz]: " + " ".join(f"{f:.3f}" for f in s["frequencies_hz"]),
+        "  frequencies [Hz]: " + " ".join(f"{f:.3f}" for f in s["frequencies_hz"]),
         f"  max D at heel {r.get('max_D_heel', 0):.4g} (D=1 at t = "
         f"{r.get('t_D_heel_reaches_1')}), crack from heel {r.get('crack_length_heel_final', 0):.4g}"
         f" m (reached at t = {r.get('t_crack_heel_reaches_final')}), debonded total "

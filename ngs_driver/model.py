@@ -265,7 +265,6 @@ def build_model(foundation: str = "rock", order: int = 1, gauss_points: int = 3,
     in-situ state of the rock predates the dam).
     """
     import ngsolve as ngs
-    from ngsolve.comp import IntegrationRuleSpaceSurface
 
     if rock_sides not in ("fixed", "roller", "free"):
         raise ValueError(f"rock_sides={rock_sides!r}: allowed 'fixed', 'roller', 'free'")

@@ -99,7 +99,6 @@ def block_on_block(h: float = 0.25, *, Wd=4.0, Hd=2.0, Wr=8.0, Hr=2.0, x0=2.0,
     nd, td, idd = _grid(nxd, nyd, h, x0, 0.0)
     nodes = np.vstack([nr, nd])
     off = len(nr)
-    tris = np.vstack([tr, td + off])
     Kr, Mr = _assemble(nr, tr, E_rock, nu_rock, rho_rock)
     Kd, Md = _assemble(nd, td, E_dam, nu_dam, rho_dam)
     K = sp.block_diag([Kr, Kd], format="csr")

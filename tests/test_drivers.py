@@ -105,7 +105,6 @@ def test_closure_reopening_contact_mixture_and_energy():
     law = InterfaceLaw(COH, ContactParams(penalty=10 * K0))
     lo, cl = 0.6, 0.1
     h = dr.closure_reopening(law, lam_open=lo, closure=cl, lam_end=1.5, n=400)
-    s = (1 - lo) / (lo * (1 - COH.lambda_max))
     gN = -cl * COH.l_Nc
     # a linear law with a penalty is one spring in compression (K_intact defaults to C_N,
     # docs §1.3), whatever the damage

@@ -12,9 +12,9 @@ import pytest
 ngs = pytest.importorskip("ngsolve")
 
 from ngs_driver import geometry as geom  # noqa: E402
-from ngs_driver.model import build_model, CLASSIC_KOYNA, PAPER_DAM, PAPER_ROCK  # noqa: E402
+from ngs_driver.model import build_model, CLASSIC_KOYNA, PAPER_DAM  # noqa: E402
 from ngs_driver.modal import (modal_analysis, paper_k0, rayleigh_coefficients,  # noqa: E402
-                              rayleigh_ratio, damping_from_modes)
+                              rayleigh_ratio)
 
 pytestmark = pytest.mark.fe
 

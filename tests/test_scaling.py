@@ -6,7 +6,7 @@ import pytest
 
 from interfacelaw import CohesiveParams, ContactParams, FrictionParams, InterfaceLaw
 from interfacelaw.scaling import (
-    FrictionScaling, PowerLaw, SizeScaling, characteristic_length, characteristic_times,
+    FrictionScaling, SizeScaling, characteristic_length, characteristic_times,
     compression_energy_law, fit_power_law, fracture_energy_law, mode_one_update_energy,
     tensile_strength_law,
 )

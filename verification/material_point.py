@@ -134,7 +134,7 @@ def _state(law, path_gaps, n=1):
 def sec_tangent(outdir, fast):
     rng = np.random.default_rng(1)
     npts = 20 if fast else 200
-    lN, lT, lm = COH.l_Nc, COH.l_Tc, COH.lambda_max
+    lN, lT = COH.l_Nc, COH.l_Tc
     base = InterfaceLaw(COH)
     con = InterfaceLaw(COH, ContactParams(kind="rough", exponent=2.5, penalty=5 * COH.k_normal))
     fri = InterfaceLaw(COH, ContactParams(), FrictionParams(0.6))

@@ -13,7 +13,10 @@ def _n(request):
     return 10**6 if request.config.getoption("benchmark_disable") is False else 2000
 
 
-def setup(n, parallel):
+def setup(n, parallel, layout="interleaved"):
+    """Random states over every branch. layout "interleaved": the branch changes from point to
+    point (worst case for branch prediction); "blocked": the same states sorted by branch, as
+    along a real interface where neighbouring points share a branch."""
     coh = CohesiveParams.from_fracture_energy(3e6, 3e6, 250.0, 0.2, 1.0)
     law = InterfaceLaw(coh, ContactParams("rough"), FrictionParams(0.3),
                        DamageParams(g_max=20 * coh.l_Nc, alpha=2.0), parallel=parallel)
@@ -25,20 +28,28 @@ def setup(n, parallel):
     st = InterfaceState(kappa, dmg, rng.uniform(0, 1.5, n) * coh.l_Nc,
                         rng.uniform(-1, 1, (n, 1)) * coh.l_Tc, np.zeros(n))
     gap = rng.uniform(-1.3, 1.3, (n, 2)) * coh.l_Nc
+    if layout == "blocked":
+        _, _, s1 = law.evaluate(gap, st)
+        key = (np.digitize(st.kappa, [lm, 1.0]) * 8 + (st.damage > 0) * 4 + (st.damage >= 1) * 2
+               + (gap[:, 0] < 0)) * 2 + (s1.kappa > st.kappa)
+        o = np.argsort(key, kind="stable")
+        st = st.take(o)
+        gap = np.ascontiguousarray(gap[o])
     out = (np.empty((n, 2)), np.empty((n, 2, 2)), law.initial_state(n))
     return law, gap, st, out
 
 
+@pytest.mark.parametrize("layout", ["interleaved", "blocked"])
 @pytest.mark.parametrize("threads", ["1", "all"])
-def test_bench_numba(benchmark, request, threads):
+def test_bench_numba(benchmark, request, threads, layout):
     import numba
     n = _n(request)
-    law, gap, st, out = setup(n, parallel=True)
+    law, gap, st, out = setup(n, parallel=True, layout=layout)
     nt = numba.config.NUMBA_NUM_THREADS
     numba.set_num_threads(1 if threads == "1" else nt)
     try:
         law.evaluate(gap, st, out=out)
-        benchmark.extra_info.update(points=n, threads=1 if threads == "1" else nt)
+        benchmark.extra_info.update(points=n, threads=1 if threads == "1" else nt, layout=layout)
         benchmark(law.evaluate, gap, st, out=out, check=False)
     finally:
         numba.set_num_threads(nt)

@@ -1,0 +1,28 @@
+"""Atomic file writes: a temporary file in the same directory, fsync, then os.replace, so a
+killed process never leaves a half-written file under the final name."""
+from __future__ import annotations
+
+import os
+import pathlib
+import tempfile
+
+
+def atomic_write_bytes(path, data: bytes) -> pathlib.Path:
+    path = pathlib.Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    try:
+        with os.fdopen(fd, "wb") as fh:
+            fh.write(data)
+            fh.flush()
+            os.fsync(fh.fileno())
+        os.replace(tmp, path)
+    except BaseException:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+        raise
+    return path
+
+
+def atomic_write_text(path, text: str) -> pathlib.Path:
+    return atomic_write_bytes(path, text.encode("utf-8"))
