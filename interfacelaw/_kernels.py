@@ -97,22 +97,33 @@ def _point(gN, gT1, gT2, ko, Do, sepo, s1, s2, coh, contact, friction, damage):
         if bonded_old:
             dg = gs - sepo
             if dg > 0.0:
-                alpha, beta, gmax, fth = damage
+                alpha, beta, gmax, fth, objective = damage
                 amag = _norm(a0, _norm(a1, a2))
                 r = s * amag / sig                   # F/sigma^t, independent of D
                 x = r - fth
                 if x > 0.0:
                     B = 1.0 if beta == 0.0 else _pow(x, beta)
                     base = dg / gmax
-                    inc = _pow(base, alpha) * B
-                    if inc < 1.0 and Do + inc < 1.0:
-                        Dn = Do + inc
-                        c1 = inc * alpha / (dg * gs)   # d inc / d gs, over gs
+                    if objective == 0.0:               # the paper's form, Eq. 7
+                        inc = _pow(base, alpha) * B
+                        ok = inc < 1.0 and Do + inc < 1.0
+                        Dtry = Do + inc
+                        c1 = inc * alpha / (dg * gs)  # d D / d gs, over gs
+                        c2 = _pow(base, alpha)        # d D / d B
+                    else:  # step-size objective: D = (p/g_max)^alpha, dp = B dg+ (docs §3 D4)
+                        xp = _pow(Do, 1.0 / alpha) + B * base
+                        Dtry = _pow(xp, alpha)
+                        ok = Dtry < 1.0
+                        dDdp = alpha * _pow(xp, alpha - 1.0) / gmax
+                        c1 = dDdp * B / gs
+                        c2 = dDdp * dg
+                    if ok:
+                        Dn = Dtry
                         dD0 = c1 * gNp
                         dD1 = c1 * gT1
                         dD2 = c1 * gT2
                         if beta != 0.0:
-                            c2 = _pow(base, alpha) * beta * _pow(x, beta - 1.0) / sig   # d inc/d r / sig
+                            c2 = c2 * beta * _pow(x, beta - 1.0) / sig   # d D/d r / sig
                             # dr*sig = sp*amag*dk + s*d|a|
                             dD0 += c2 * (sp * amag * dk0 + s * a0 * H0 / amag)
                             dD1 += c2 * (sp * amag * dk1 + s * a1 * kT / amag)

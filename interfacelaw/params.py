@@ -225,15 +225,23 @@ class DamageParams:
     alpha : > 0 (paper: 1 or 2).  beta : >= 0 (paper: 0).
     g_max : cumulative separation to failure [m] (> 0); not given by the paper.
     F_th : threshold traction [Pa] (>= 0).
+    form : "paper" (default, Eq. 7 as written) or "objective": the rate form
+        dD = alpha (p/g_max)^(alpha-1) dp/g_max, dp = B dg+, integrated exactly per step as
+        p_new = g_max D_old^(1/alpha) + B dg+, D_new = (p_new/g_max)^alpha — independent of the
+        step size for beta = 0 (docs/decisions.md §3 D4). Identical to "paper" for alpha = 1.
     """
 
     g_max: float
     alpha: float = 1.0
     beta: float = 0.0
     F_th: float = 0.0
+    form: str = "paper"
 
     def __post_init__(self):
         c = "DamageParams"
+        if self.form not in ("paper", "objective"):
+            raise ValueError(f"{c}.form = {self.form!r} is not allowed; allowed: 'paper' (Eq. 7, "
+                             "step-size dependent for alpha != 1) or 'objective'")
         object.__setattr__(self, "g_max", _check(c, "g_max", self.g_max, lo=0.0))
         object.__setattr__(self, "alpha", _check(c, "alpha", self.alpha, lo=0.0, hi=20.0,
                                                  hi_open=False))
@@ -242,4 +250,5 @@ class DamageParams:
         object.__setattr__(self, "F_th", _check(c, "F_th", self.F_th, lo=0.0, lo_open=False))
 
     def as_array(self, coh: CohesiveParams) -> np.ndarray:
-        return np.array([self.alpha, self.beta, self.g_max, self.F_th / coh.sigma_max])
+        return np.array([self.alpha, self.beta, self.g_max, self.F_th / coh.sigma_max,
+                         1.0 if self.form == "objective" else 0.0])

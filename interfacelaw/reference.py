@@ -112,7 +112,7 @@ def _evaluate(law, gap, state, n, d, sig, tau, lN, lT, lm):
     # ---- 1.5 cyclic damage ---------------------------------------------------------------
     dDdg = np.zeros((n, d))
     if law.damage is not None:
-        al, be, gmax, fth = law.damage.as_array(law.cohesive)   # fth = F_th/sigma_max
+        al, be, gmax, fth, objective = law.damage.as_array(law.cohesive)  # fth = F_th/sigma
         dg = sep - sep_old
         grow = dg > 0.0
         dgp = np.where(grow, dg, 0.0)
@@ -128,18 +128,29 @@ def _evaluate(law, gap, state, n, d, sig, tau, lN, lT, lm):
             B = np.where(above, xp ** be, 0.0)        # <r - F_th/sigma_max>^beta
             dBdr = np.where(above, be * np.where(above, xp, 1.0) ** (be - 1.0), 0.0)
             dBdr = np.minimum(dBdr, _RATE_CAP)
-        X = (dgp / gmax) ** al                        # (Delta g/g_max)^alpha
         Bpos = B > 0.0
-        raw = np.where(grow & Bpos, X * np.where(Bpos, B, 0.0), 0.0)
-        dD = np.minimum(1.0, raw)                     # Delta D
-        D_new = np.minimum(1.0, D_old + dD)
-        # d Delta D/dg = alpha (Dg/g_max)^(alpha-1)/g_max B dsep/dg + X dB/dr dr/dg, where neither
-        # min(1, .) clips (zero slope on the clipped branches and for Delta g <= 0)
-        free = grow & Bpos & (raw < 1.0) & (D_old + dD < 1.0)
-        dX = al * np.where(free, dgp / gmax, 1.0) ** (al - 1.0) / gmax
-        dX = np.where(free, np.minimum(dX, _RATE_CAP), 0.0)
-        c1 = np.where(free, dX * B, 0.0)
-        c2 = np.where(free, X * dBdr, 0.0)
+        if objective == 0.0:
+            X = (dgp / gmax) ** al                    # (Delta g/g_max)^alpha
+            raw = np.where(grow & Bpos, X * np.where(Bpos, B, 0.0), 0.0)
+            dD = np.minimum(1.0, raw)                 # Delta D
+            D_new = np.minimum(1.0, D_old + dD)
+            # d Delta D/dg = alpha (Dg/g_max)^(alpha-1)/g_max B dsep/dg + X dB/dr dr/dg, where
+            # neither min(1, .) clips (zero slope on the clipped branches and for Delta g <= 0)
+            free = grow & Bpos & (raw < 1.0) & (D_old + dD < 1.0)
+            dX = al * np.where(free, dgp / gmax, 1.0) ** (al - 1.0) / gmax
+            dX = np.where(free, np.minimum(dX, _RATE_CAP), 0.0)
+            c1 = np.where(free, dX * B, 0.0)
+            c2 = np.where(free, X * dBdr, 0.0)
+        else:
+            # objective form: p/g_max = D_old^(1/alpha) + B Dg+/g_max, D_new = (p/g_max)^alpha
+            act = grow & Bpos
+            xp = np.clip(D_old, 0.0, 1.0) ** (1.0 / al) + np.where(act, B, 0.0) * dgp / gmax
+            Dtry = xp ** al
+            free = act & (Dtry < 1.0)
+            D_new = np.where(act, np.minimum(1.0, Dtry), D_old)
+            dDdp = np.where(free, al * np.where(free, xp, 1.0) ** (al - 1.0) / gmax, 0.0)
+            c1 = np.where(free, dDdp * B, 0.0)
+            c2 = np.where(free, dDdp * dgp * dBdr, 0.0)
         dDdg = c1[:, None] * dsep + c2[:, None] * dr
     else:
         D_new = D_old.copy()

@@ -252,6 +252,23 @@ def test_damage_monotone_bounded_closing_adds_nothing_and_D1_no_cohesion():
     assert np.all(F == 0.0)
 
 
+@pytest.mark.parametrize("alpha", [1.0, 2.0, 3.0])
+def test_objective_damage_form_is_independent_of_the_step_and_paper_form_is_not(alpha):
+    """10 cycles 0 -> A -> 0 in k increments per half cycle (beta = 0): the objective form gives
+    (N A/g_max)^alpha for every k; the paper's form gives N k (A/(k g_max))^alpha."""
+    A, gmax, N = 0.05 * COH.l_Nc, 10 * COH.l_Nc, 10
+    for k in (1, 4, 64):
+        up = np.linspace(0, A, k + 1)[1:]
+        cyc = np.r_[up, up[::-1][1:], 0.0]
+        path = np.c_[np.tile(cyc, N), np.zeros(N * len(cyc))]
+        D = {}
+        for form in ("paper", "objective"):
+            law = InterfaceLaw(COH, damage=DamageParams(g_max=gmax, alpha=alpha, form=form))
+            D[form] = drive(law, path)[1].damage[0]
+        assert D["objective"] == pytest.approx((N * A / gmax) ** alpha, rel=1e-10)
+        assert D["paper"] == pytest.approx(N * k * (A / (k * gmax)) ** alpha, rel=1e-10)
+
+
 def test_damage_threshold_beta():
     law = InterfaceLaw(COH, damage=DamageParams(g_max=COH.l_Nc, alpha=1.0, beta=1.0,
                                                F_th=0.5 * COH.sigma_max))
@@ -469,6 +486,7 @@ def test_from_fracture_energy_validation():
     (lambda: DamageParams(g_max=1.0, alpha=0.0), r"DamageParams\.alpha = 0.0.*allowed"),
     (lambda: DamageParams(g_max=1.0, beta=-1.0), r"DamageParams\.beta = -1.0.*allowed"),
     (lambda: DamageParams(g_max=1.0, F_th=-1.0), r"DamageParams\.F_th = -1.0.*allowed"),
+    (lambda: DamageParams(g_max=1.0, form="exact"), r"DamageParams\.form = 'exact'.*allowed"),
     (lambda: InterfaceLaw("x"), r"InterfaceLaw\.cohesive = 'x'.*allowed"),
     (lambda: InterfaceLaw(COH, friction=FrictionParams()), r"friction.*contact = None"),
     (lambda: InterfaceLaw(COH, damage=FrictionParams()), r"InterfaceLaw\.damage = .*allowed"),
