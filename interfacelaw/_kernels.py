@@ -58,9 +58,10 @@ def _point(gN, gT1, gT2, ko, Do, sepo, s1, s2, coh, contact, friction, damage):
     hN = 1.0 if gN >= 0.0 else 0.0                 # d<gN>/dgN (tension side at gN = 0)
 
     # Eq. 1 with <gN>: lam = hypot(u, v)
-    u = gNp * ilN
-    t1 = gT1 * ilT
-    t2 = gT2 * ilT
+    # divisions, not reciprocals: a gap of exactly l_Nc (or l_Tc) must give lambda = 1 exactly
+    u = gNp / lN
+    t1 = gT1 / lT
+    t2 = gT2 / lT
     v = _norm(t1, t2)
     lam = _norm(u, v)
 
