@@ -1,0 +1,114 @@
+"""Koyna benchmarks of issue #7 (per implicit step on the Koyna dam-foundation mesh): the
+condensed solver with the scene's nonlinear interface law (strong part of the record), the
+re-factorising full Newton, our solver on a linear (elastic-branch) interface, and OpenSeesPy
+linear on the same mesh (skipped without openseespy: `pip install -e .[bench]`).
+
+`make bench` runs them on the default Koyna mesh (12.2k DOFs, 333 interface points; each < 1
+min including model build); `make test` (--benchmark-disable) runs every body once on a tiny
+mesh so they cannot rot. The full study (DOF/point scaling, the 10 s run, ratios) is
+verification/bench_koyna.py; numbers in BENCHMARKS.md.
+"""
+import pathlib
+import sys
+
+import numpy as np
+import pytest
+
+pytest.importorskip("ngsolve")
+sys.path.insert(0, str(pathlib.Path(__file__).resolve().parents[2] / "verification"))
+import bench_koyna as bk  # noqa: E402
+
+TINY = ["mesh.h_coarse=10.0", "mesh.h_interface=5.0", "mesh.h_heel=1.0", "mesh.heel_zone=2.0"]
+_CACHE = {}
+
+
+def _enabled(request):
+    return request.config.getoption("benchmark_disable") is False
+
+
+def _setup(request):
+    """(scene, model, (a0, a1)): default Koyna mesh with make bench, tiny mesh otherwise."""
+    key = _enabled(request)
+    if key not in _CACHE:
+        sc = bk.scene([] if key else TINY)
+        m = bk.model_of(sc)
+        _CACHE[key] = (sc, m, bk.rayleigh(m, sc))
+    return _CACHE[key]
+
+
+def _warm_solver(sc, m, a0a1, law, method, warm):
+    fs, fk, _, _ = bk.loads(m, sc, 400)
+    s = bk.make_solver(m, law, a0a1, method)
+    bk.start_solver(s, fs, fk)
+    for k in range(1, warm + 1):
+        s.step(fk(k))
+    return s, fk
+
+
+def _bench_steps(benchmark, s, fk, warm, rounds, m):
+    counter = [warm]
+
+    def one():
+        counter[0] += 1
+        return s.step(fk(counter[0]))
+
+    benchmark.pedantic(one, rounds=rounds, iterations=1, warmup_rounds=0)
+    its = [r.iterations for r in s.history[-rounds:]] if getattr(s, "history", None) else []
+    benchmark.extra_info.update(ndof=int(m.nfree), npts=int(m.interface.npts),
+                                method=s.method,
+                                mean_newton_iterations=float(np.mean(its)) if its else None,
+                                n_active=int(s.history[-1].n_active) if its else None)
+    return its
+
+
+def test_bench_koyna_condensed_step(benchmark, request):
+    """Condensed solver, scene law (alpha = 2), strong part of the record (t = 2 s on)."""
+    sc, m, a0a1 = _setup(request)
+    warm = 20 if _enabled(request) else 1
+    s, fk = _warm_solver(sc, m, a0a1, bk.scene_law(sc), "condensed", warm)
+    its = _bench_steps(benchmark, s, fk, warm, 100 if _enabled(request) else 1, m)
+    assert np.isfinite(s.u[m.crest_dofs[0]]) and min(its) >= 1
+
+
+def test_bench_koyna_full_step(benchmark, request):
+    """Full re-factorising Newton (reference), same law and record; few rounds (~1 s/step)."""
+    sc, m, a0a1 = _setup(request)
+    warm = 2 if _enabled(request) else 1
+    s, fk = _warm_solver(sc, m, a0a1, bk.scene_law(sc), "full", warm)
+    its = _bench_steps(benchmark, s, fk, warm, 5 if _enabled(request) else 1, m)
+    assert min(its) >= 1
+
+
+def test_bench_koyna_linear_step(benchmark, request):
+    """Our condensed solver with an interface that stays on its elastic branch (k0 of the
+    scene): the same work as a linear Newmark step (one solve)."""
+    sc, m, a0a1 = _setup(request)
+    s, fk = _warm_solver(sc, m, a0a1, bk.linear_law(sc), "condensed", 1)
+    _bench_steps(benchmark, s, fk, 1, 200 if _enabled(request) else 1, m)
+    assert s.history[-1].n_active == 0
+
+
+def test_bench_koyna_opensees_linear_step(benchmark, request):
+    """OpenSeesPy, same mesh, linear (tri31 plane strain, zeroLength springs k0), BandSPD,
+    algorithm Linear -factorOnce, Newmark average acceleration, dt = 2 ms."""
+    try:
+        ops = bk.import_opensees()
+    except Exception as exc:  # noqa: BLE001
+        pytest.skip(f"openseespy not usable: {exc!r}")
+    sc, m, a0a1 = _setup(request)
+    law = bk.scene_law(sc)
+    fs, fk, ax, ay = bk.loads(m, sc, 400)
+    crest, nfree, _, _ = bk.build_opensees(ops, m, sc, a0a1, law.cohesive.k_normal,
+                                           law.cohesive.k_tangential, fs, ax, ay, "BandSPD")
+    assert nfree == m.nfree
+    ops.analyze(1, bk.DT)                         # factorisation outside the timing
+
+    def one():
+        return ops.analyze(1, bk.DT)
+
+    benchmark.pedantic(one, rounds=200 if _enabled(request) else 1, iterations=1,
+                       warmup_rounds=0)
+    benchmark.extra_info.update(ndof=int(nfree), system="BandSPD")
+    ux = ops.nodeDisp(crest, 1)
+    ops.wipe()
+    assert np.isfinite(ux)
