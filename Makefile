@@ -9,7 +9,7 @@ export OPENBLAS_NUM_THREADS ?= 1
 export MKL_NUM_THREADS ?= 1
 export MPLBACKEND ?= Agg
 
-.PHONY: venv run test bench verify clean
+.PHONY: venv run test bench bench-koyna verify clean
 
 $(STAMP): pyproject.toml
 	test -x $(VPY) || $(PY) -m venv $(VENV)
@@ -26,8 +26,14 @@ test: $(STAMP)
 	$(VPY) -m pytest -q --benchmark-disable tests
 
 bench: $(STAMP)
+	$(VPY) -m pip install --quiet -e ".[bench]"
 	$(VPY) -m pytest -q tests/bench --benchmark-only --benchmark-json=.benchmarks.json
 	$(VPY) verification/write_benchmarks.py
+
+# the long Koyna benchmark study (DOF/point scaling, full 10 s runs, OpenSeesPy): ~15 min
+bench-koyna: $(STAMP)
+	$(VPY) -m pip install --quiet -e ".[bench]"
+	$(VPY) verification/bench_koyna.py
 
 verify: $(STAMP)
 	$(VPY) verification/run_all.py
