@@ -338,6 +338,8 @@ def run(scene, outdir=None, resume: bool = False, progress: bool = True,
         k_start = 0
         dyn_wall_before = 0.0
         resumed_from = None
+        # Fig. 12 shows the state of the largest heel opening while the base still holds
+        heel = {"u": u_static.copy(), "t": 0.0, "open": float(solver.g[0, 0])}
     else:
         meta, arrs = ck
         from interfacelaw import InterfaceState
@@ -358,6 +360,8 @@ def run(scene, outdir=None, resume: bool = False, progress: bool = True,
         snaps = {"step": [int(s) for s in arrs["snap_step"]],
                  "t": [float(s) for s in arrs["snap_t"]],
                  "D": list(arrs["snap_D"]), "kappa": list(arrs["snap_kappa"])}
+        heel = {"u": arrs["heel_u"], "t": float(meta["heel_t"]),
+                "open": float(meta["heel_open"])}
         k_start = int(meta["step"])
         dyn_wall_before = float(meta["dynamic_wall"])
         resumed_from = k_start
@@ -378,8 +382,10 @@ def run(scene, outdir=None, resume: bool = False, progress: bool = True,
         arrays["snap_t"] = np.asarray(snaps["t"])
         arrays["snap_D"] = np.asarray(snaps["D"])
         arrays["snap_kappa"] = np.asarray(snaps["kappa"])
+        arrays["heel_u"] = heel["u"]
         coh = law.cohesive
         ckp.save(k, {"scene": scene_d, "time": solver.time, "static": static_info,
+                     "heel_t": heel["t"], "heel_open": heel["open"],
                      "rayleigh": {"a0": damp["a0"], "a1": damp["a1"]},
                      "dynamic_wall": dyn_wall,
                      "law": {"sigma_max": coh.sigma_max, "tau_max": coh.tau_max,
@@ -428,6 +434,9 @@ def run(scene, outdir=None, resume: bool = False, progress: bool = True,
                                     f"crack={crack_heel:.3f}m Dheel={st.damage[0]:.3f}",
                                     refresh=False)
             steps_this_call += 1
+            if ndeb < iface.npts and solver.g[0, 0] > heel["open"]:
+                heel = {"u": solver.u.copy(), "t": float(times[k]),
+                        "open": float(solver.g[0, 0])}
             if stop_slip > 0 and ndeb == iface.npts:
                 slip = abs(float(np.dot(w, solver.g[:, 1]) / w.sum()))
                 if slip > stop_slip:
@@ -452,7 +461,7 @@ def run(scene, outdir=None, resume: bool = False, progress: bool = True,
     H = hist.arrays()
     t_out = time.perf_counter()
     files = outputs.write_run_outputs(out, model, scene, gm, H, snaps, solver, u_static,
-                                      plots=plots)
+                                      plots=plots, heel=heel)
     if vtk is not None:
         files.append(str(vtk.path_hint))
     atomic_savez(out / "final_state.npz", u=solver.u, v=solver.v, a=solver.a,

@@ -219,7 +219,8 @@ class VTKWriter:
 
 
 # ---------------------------------------------------------------------------------------------
-def write_run_outputs(out, model, scene, gm, H, snaps, solver, u_static, plots=True):
+def write_run_outputs(out, model, scene, gm, H, snaps, solver, u_static, plots=True,
+                      heel=None):
     """CSV + PNG of one run; returns the list of file names written."""
     from .koyna import FORMULATION
 
@@ -256,9 +257,12 @@ def write_run_outputs(out, model, scene, gm, H, snaps, solver, u_static, plots=T
     files.append(plot_crack_length(out / "crack_length.png",
                                    [(f"alpha = {a:g}", H["t"], H["crack_length_heel"],
                                      H["crack_length"])], title))
-    f = plot_heel_von_mises(out / "fig12_heel_von_mises.png", model, solver.u,
-                            title + f"\nend of the run, t = "
-                            f"{H['t'][-1] if len(H['t']) else 0:.2f} s")
+    if heel is None:
+        heel = {"u": solver.u, "t": H["t"][-1] if len(H["t"]) else 0.0, "open": None}
+    f = plot_heel_von_mises(out / "fig12_heel_von_mises.png", model, heel["u"],
+                            title + f"\nt = {heel['t']:.3f} s: largest heel opening "
+                            + (f"({1e3 * heel['open']:.3g} mm) " if heel["open"] is not None
+                               else "") + "while the base still holds")
     if f:
         files.append(f)
     files.append(plot_mesh(out / "fig8b_mesh.png", model,
