@@ -65,6 +65,8 @@ def main(argv=None) -> Path:
     axs[4].set_title("5 %-damped pseudo-acceleration spectra (Newmark average acceleration) -- SYNTHETIC")
 
     out = Path(args.out)
+    if out.is_dir() or not out.suffix:          # a directory: write ground_motion.png in it
+        out = out / "ground_motion.png"
     out.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(out, dpi=50 if args.fast else 120)
     plt.close(fig)

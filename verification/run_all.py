@@ -7,13 +7,14 @@ from __future__ import annotations
 
 import argparse
 import importlib
+import inspect
 import pathlib
 import sys
 import time
 
 HERE = pathlib.Path(__file__).resolve().parent
 STUDIES = ["material_point", "scaling_plots", "ground_motion_plot", "model_checks",
-           "dcb_study", "koyna_studies"]
+           "newmark_checks", "dcb_study", "koyna_studies"]
 
 
 def main(argv=None) -> int:
@@ -33,7 +34,13 @@ def main(argv=None) -> int:
         t0 = time.perf_counter()
         try:
             mod = importlib.import_module(name)
-            summary = mod.main(fast=a.fast, outdir=out)
+            params = inspect.signature(mod.main).parameters
+            if "outdir" in params:
+                summary = mod.main(fast=a.fast, outdir=out)
+            else:                                   # argparse-style main(argv)
+                summary = mod.main((["--fast"] if a.fast else []) + ["--out", str(out)])
+            if not isinstance(summary, str):
+                summary = None
             print(f"[verify] {name}: done in {time.perf_counter() - t0:.1f} s")
             if summary:
                 print(summary)
