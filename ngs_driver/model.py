@@ -425,7 +425,8 @@ def _vertex_xy_dofs(V, dofs) -> tuple[int, int]:
 
 
 def build_interface(mesh, fes, Vd, Vr, free, n_gauss: int, foundation: str,
-                    matching: bool, order: int) -> Interface:
+                    matching: bool, order: int,
+                    coupling: str = "segment-to-segment") -> Interface:
     """Interface operator B (see ``Interface``).
 
     Dam side (and rock side for matching meshes): NGSolve evaluates the basis functions
@@ -433,12 +434,18 @@ def build_interface(mesh, fes, Vd, Vr, free, n_gauss: int, foundation: str,
     the mixed form  b(u, q) = sum_p w_p (u . e)(x_p) q_p  divided by the IR-space mass
     (diagonal = w_p) gives exactly the point values.  Rock side of a non-matching mesh:
     node-to-segment projection of each dam-side Gauss point onto the "interface_rock"
-    segments, linear shape functions (order 1 only)."""
+    segments, linear shape functions (order 1 only) — ``coupling="node-to-segment"``, kept for
+    comparison; the default for non-matching meshes is ``segment_to_segment`` (passes the
+    patch test)."""
     import ngsolve as ngs
     from ngsolve.comp import IntegrationRuleSpaceSurface
 
     normal = np.array([0.0, 1.0])
     tangent = np.array([1.0, 0.0])
+    if foundation != "rigid" and not matching and coupling == "segment-to-segment":
+        if order != 1:
+            raise NotImplementedError("non-matching interface implemented for order=1 only")
+        return segment_to_segment(mesh, fes, Vd, Vr, free, n_gauss, normal, tangent)
     nfull = fes.ndof
     irs = IntegrationRuleSpaceSurface(mesh, order=n_gauss - 1,
                                       definedon=mesh.Boundaries("interface"))
@@ -515,6 +522,86 @@ def build_interface(mesh, fes, Vd, Vr, free, n_gauss: int, foundation: str,
     return Interface(B=B, x=xs[pord], y=ys[pord], w=w[pord], segment=seg_new[seg_of_dof][pord],
                      segments=segs[seg_order], n_gauss=n_gauss, normal=normal,
                      tangent=tangent, matching=matching or ur is None)
+
+
+def _p1_segments(mesh, V, boundary):
+    """[(vertex coordinates (2, 2), (x dof, y dof) per vertex)] of the boundary's segments."""
+    import ngsolve as ngs
+    segs = []
+    for el in mesh.Boundaries(boundary).Elements():
+        vs = [v.nr for v in el.vertices]
+        P = np.array([mesh.vertices[v].point[:2] for v in vs])
+        dofs = [_vertex_xy_dofs(V, V.GetDofNrs(ngs.NodeId(ngs.VERTEX, v))) for v in vs]
+        segs.append((P, dofs))
+    return segs
+
+
+def _p1_rows(segs, off, X, sign, normal, tangent, rows, cols, vals, i):
+    """Append sign * (displacement . e) at point X (rows 2i, 2i+1) by projection onto the
+    nearest segment of ``segs`` (linear shape functions). Returns the segment index."""
+    best = None
+    for k, (P, dofs) in enumerate(segs):
+        t = P[1] - P[0]
+        s = np.clip((X - P[0]) @ t / (t @ t), 0.0, 1.0)
+        dist = np.linalg.norm(P[0] + s * t - X)
+        if best is None or dist < best[0] - 1e-14:
+            best = (dist, s, k)
+    _, s, k = best
+    N = (1.0 - s, s)
+    for a in range(2):
+        for comp in range(2):
+            for r, e in ((2 * i, normal), (2 * i + 1, tangent)):
+                if e[comp] != 0.0:
+                    rows.append(r)
+                    cols.append(off + segs[k][1][a][comp])
+                    vals.append(sign * N[a] * e[comp])
+    return k
+
+
+def segment_to_segment(mesh, fes, Vd, Vr, free, n_gauss, normal, tangent) -> "Interface":
+    """Non-matching straight interface, integrated segment-to-segment: the dam-side and
+    rock-side segments are cut at every vertex of either side, and each piece carries n Gauss
+    points, so both sides' linear shape functions are smooth on every piece and B^T W t is
+    integrated exactly for a linear traction: the patch test (uniform stress across the
+    interface) passes to round-off (tests/test_patch.py). One-pass node-to-segment with the
+    points on the dam segments only does not (0.2-6 % error measured)."""
+    dseg = _p1_segments(mesh, Vd, "interface")
+    rseg = _p1_segments(mesh, Vr, "interface_rock")
+    allp = np.vstack([P for P, _ in dseg] + [P for P, _ in rseg])
+    a0 = allp[np.argmin(allp[:, 0] + 1e-9 * allp[:, 1])]
+    d = allp[np.argmax(np.linalg.norm(allp - a0, axis=1))] - a0
+    L = np.linalg.norm(d)
+    d = d / L
+    off_line = np.abs((allp - a0) @ np.array([-d[1], d[0]])).max()
+    if off_line > 1e-9 * L:
+        raise NotImplementedError("segment-to-segment coupling needs a straight interface "
+                                  f"(vertices are up to {off_line:.3g} m off the line)")
+    s_br = np.unique(np.round((allp - a0) @ d, 12))
+    gx, gw = np.polynomial.legendre.leggauss(n_gauss)
+    xs, ys, w = [], [], []
+    for s0, s1 in zip(s_br[:-1], s_br[1:]):
+        if s1 - s0 <= 1e-12 * L:
+            continue
+        for xi, wi in zip(gx, gw):
+            X = a0 + (0.5 * (s0 + s1) + 0.5 * (s1 - s0) * xi) * d
+            xs.append(X[0])
+            ys.append(X[1])
+            w.append(0.5 * (s1 - s0) * wi)
+    xs, ys, w = np.array(xs), np.array(ys), np.array(w)
+    rows, cols, vals = [], [], []
+    seg = np.empty(xs.size, dtype=np.int64)
+    for i in range(xs.size):
+        X = np.array([xs[i], ys[i]])
+        seg[i] = _p1_rows(dseg, 0, X, 1.0, normal, tangent, rows, cols, vals, i)
+        _p1_rows(rseg, Vd.ndof, X, -1.0, normal, tangent, rows, cols, vals, i)
+    B = sp.csr_matrix((vals, (rows, cols)), shape=(2 * xs.size, fes.ndof))[:, free].tocsr()
+    B.eliminate_zeros()
+    segs = np.array([sorted(map(tuple, P)) for P, _ in dseg])
+    order = np.argsort(segs[:, 0, 0], kind="stable")
+    renum = np.empty_like(order)
+    renum[order] = np.arange(order.size)
+    return Interface(B=B, x=xs, y=ys, w=w, segment=renum[seg], segments=segs[order],
+                     n_gauss=n_gauss, normal=normal, tangent=tangent, matching=False)
 
 
 def _rock_nts(mesh, fes, Vd, Vr, xs, ys, normal, tangent) -> sp.csr_matrix:
