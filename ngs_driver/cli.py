@@ -78,7 +78,12 @@ def _load(scene, overrides):
 
 
 def _dry_run(sc, outdir) -> int:
-    from .koyna import describe
+    if sc.kind == "material_point":
+        from .scene_runs import describe_point as describe
+    elif sc.kind == "dcb":
+        from .scene_runs import describe_dcb as describe
+    else:
+        from .koyna import describe
     d = describe(sc)
     d["will_build"]["output_dir"] = str(outdir)
     print(json.dumps(d, indent=2))
@@ -93,10 +98,29 @@ def cmd_run(a) -> int:
     outdir = pathlib.Path(a.out or sc.output.dir)
     if a.dry_run:
         return _dry_run(sc, outdir)
+    if sc.kind != "koyna":
+        if a.resume:
+            return _err(f"--resume: scenes of kind {sc.kind!r} are short and not checkpointed; "
+                        "allowed: --resume with kind 'koyna'")
+        return _run_other(sc, outdir, not a.quiet)
     if a.resume and not (outdir / "checkpoint.json").exists():
         return _err(f"--resume: no checkpoint in {outdir}; allowed: the results directory of an "
                     "interrupted run with output.checkpoint_every > 0")
     return _run_one(sc, outdir, a.resume, not a.quiet)
+
+
+def _run_other(sc, outdir, progress) -> int:
+    """material_point (never imports NGSolve) and dcb scenes."""
+    from . import scene_runs
+    fn = scene_runs.run_point if sc.kind == "material_point" else scene_runs.run_dcb_scene
+    try:
+        s = fn(sc, outdir)
+    except (ValueError, FileNotFoundError) as e:
+        return _err(str(e))
+    if progress:
+        print(json.dumps(s["results"], indent=2))
+        print(f"results in {outdir}")
+    return 0
 
 
 def _run_one(sc, outdir, resume, progress) -> int:
@@ -125,6 +149,9 @@ def cmd_run_paper(a) -> int:
             scenes[lab] = (_load(a.scene, list(a.overrides) + [f"interface.alpha={alpha}"]), d)
     except ValueError as e:
         return _err(str(e))
+    kind = next(iter(scenes.values()))[0].kind
+    if kind != "koyna":
+        return _err(f"run-paper: scene {a.scene!r} is of kind {kind!r}; allowed: a koyna scene")
     if a.dry_run:
         for lab, (sc, d) in scenes.items():
             print(f"# {lab}")

@@ -59,7 +59,8 @@ def build_law(scene):
                                               i.ratio_lTc_lNc)
     con = None if i.contact == "none" else ContactParams(kind=i.contact)
     fri = FrictionParams(f=i.friction) if (con is not None and i.friction > 0) else None
-    dmg = DamageParams(g_max=i.g_max, alpha=i.alpha, beta=i.beta, F_th=i.F_th)
+    dmg = (DamageParams(g_max=i.g_max, alpha=i.alpha, beta=i.beta, F_th=i.F_th,
+                        form=i.damage_form) if i.damage else None)
     return InterfaceLaw(coh, con, fri, dmg)
 
 
@@ -78,8 +79,9 @@ def law_parts(scene) -> dict:
     return {"cohesive": "Geubelle-Baylor bilinear mixed mode",
             "contact": i.contact,
             "friction": bool(i.contact != "none" and i.friction > 0),
-            "damage": True, "damage_alpha": i.alpha, "damage_beta": i.beta,
-            "damage_g_max": i.g_max, "scaling": bool(i.scaling)}
+            "damage": bool(i.damage), "damage_form": i.damage_form, "damage_alpha": i.alpha,
+            "damage_beta": i.beta, "damage_g_max": i.g_max,
+            "scaling": bool(getattr(i, "scaling", False))}
 
 
 def load_ground_motion(scene):

@@ -119,6 +119,9 @@ class Interface:
     F_th: float = _f(0.0, lo=0.0, hi=1e9)
     contact: str = _f("linear", choices=("linear", "rough", "none"))
     scaling: bool = _f(True)
+    damage: bool = _f(True, doc="false: a law without the damage part (its kernel omits it)")
+    damage_form: str = _f("paper", choices=("paper", "objective"),
+                          doc="Eq. 7 as written, or the step-size-objective variant")
 
 
 @dataclass(frozen=True)
@@ -141,6 +144,7 @@ class Solver:
 class Scene:
     name: str = "koyna"
     description: str = ""
+    kind: str = _f("koyna", choices=("koyna",))
     geometry: Geometry = field(default_factory=Geometry)
     mesh: Mesh = field(default_factory=Mesh)
     materials: Materials = field(default_factory=Materials)
@@ -174,6 +178,81 @@ class Scene:
                     heel_zone=m.heel_zone, growth=m.growth, grading=m.grading,
                     extent_up=g.extent_up, extent_down=g.extent_down,
                     extent_depth=g.extent_depth, matching=g.matching)
+
+
+@dataclass(frozen=True)
+class PointPath:
+    """A single-point load path of interfacelaw.drivers (docs/decisions.md §3)."""
+    type: str = _f("mode_I", choices=("mode_I", "mode_II", "mixed", "load_unload_reload",
+                                      "closure_reopening", "cycles", "shear_under_pressure"))
+    n: int = _f(200, lo=1, hi=10 ** 7, doc="increments (per cycle for cycles/shear paths)")
+    lam_end: float = _f(1.5, lo=0.0, hi=1e6, lo_open=True, doc="final lambda of monotonic paths")
+    psi_deg: float = _f(0.0, lo=0.0, hi=90.0, doc="mixity angle: tan(psi) = g_T/g_N")
+    lam_unload: float = _f(0.5, lo=0.0, hi=1e6, lo_open=True)
+    closure: float = _f(0.1, lo=0.0, hi=1e6, doc="penetration / l_Nc of closure_reopening")
+    amplitude: float = _f(0.1, lo=0.0, hi=1e6, lo_open=True,
+                          doc="cycle amplitude / l_Nc (cycles), slip amplitude / l_Tc (shear)")
+    R: float = _f(0.0, lo=-1.0, hi=1.0, hi_open=True, doc="min/max ratio of the cycles")
+    n_cycles: int = _f(10, lo=1, hi=10 ** 7)
+    pressure: float = _f(1.0e6, lo=0.0, hi=1e10, lo_open=True, doc="normal compression [Pa]")
+
+
+@dataclass(frozen=True)
+class PointOutput:
+    dir: str = _f("out/material_point")
+
+
+@dataclass(frozen=True)
+class MaterialPointScene:
+    """kind = "material_point": one interface point along a load path; never imports NGSolve."""
+    name: str = "material_point"
+    description: str = ""
+    kind: str = _f("material_point", choices=("material_point",))
+    interface: Interface = field(default_factory=Interface)
+    path: PointPath = field(default_factory=PointPath)
+    output: PointOutput = field(default_factory=PointOutput)
+
+    def to_dict(self) -> dict:
+        return _to_plain(dataclasses.asdict(self))
+
+
+@dataclass(frozen=True)
+class DCBSection:
+    L: float = _f(1.0, lo=0.0, hi=100.0, lo_open=True, doc="total length [m]")
+    h: float = _f(0.1, lo=0.0, hi=10.0, lo_open=True, doc="arm height [m]")
+    a0: float = _f(0.4, lo=0.0, hi=100.0, lo_open=True, doc="initial crack length [m]")
+    E: float = _f(30e9, lo=0.0, hi=1e13, lo_open=True)
+    nu: float = _f(0.2, lo=0.0, hi=0.5, hi_open=True)
+    sigma_max: float = _f(3e6, lo=0.0, hi=1e10, lo_open=True)
+    G_I: float = _f(100.0, lo=0.0, hi=1e7, lo_open=True)
+    lambda_max: float = _f(0.01, lo=0.0, hi=1.0, lo_open=True, hi_open=True)
+    h_int: float = _f(0.02, lo=0.0, hi=10.0, lo_open=True, doc="interface element size [m]")
+    gauss_points: int = _f(5, lo=1, hi=20)
+    order: int = _f(2, lo=1, hi=4)
+    n_steps: int = _f(60, lo=1, hi=10 ** 6)
+
+
+@dataclass(frozen=True)
+class DCBScene:
+    """kind = "dcb": double cantilever beam, mode I, against beam theory / LEFM."""
+    name: str = "dcb"
+    description: str = ""
+    kind: str = _f("dcb", choices=("dcb",))
+    dcb: DCBSection = field(default_factory=DCBSection)
+    output: PointOutput = field(default_factory=lambda: PointOutput("out/dcb"))
+
+    def to_dict(self) -> dict:
+        return _to_plain(dataclasses.asdict(self))
+
+
+SCENE_KINDS = {"koyna": Scene, "material_point": MaterialPointScene, "dcb": DCBScene}
+
+
+def _root(raw: dict):
+    kind = raw.get("kind", "koyna")
+    if kind not in SCENE_KINDS:
+        raise ValueError(f"kind = {kind!r}: not allowed, choose one of {sorted(SCENE_KINDS)}")
+    return SCENE_KINDS[kind]
 
 
 def _to_plain(d):
@@ -298,9 +377,10 @@ def apply_overrides(raw: dict, overrides) -> dict:
     """Merge ``--set`` overrides into the raw scene dict (paths are checked against the
     schema so that a typo fails with the allowed keys)."""
     raw = _deepcopy(raw)
+    root = _root(raw)
     for item in overrides or ():
         parts, val = parse_override(item)
-        cls = Scene
+        cls = root
         d = raw
         for i, p in enumerate(parts):
             hints = get_type_hints(cls)
@@ -347,11 +427,12 @@ def scene_path(name_or_path: str | Path) -> Path:
                      f"shipped scenes: {avail}")
 
 
-def from_dict(raw: dict, overrides=None) -> Scene:
-    return _build(Scene, apply_overrides(raw, overrides), "")
+def from_dict(raw: dict, overrides=None):
+    """A ``Scene`` (kind "koyna", the default), ``MaterialPointScene`` or ``DCBScene``."""
+    return _build(_root(raw), apply_overrides(raw, overrides), "")
 
 
-def load_scene(name_or_path: str | Path = "koyna", overrides=None) -> Scene:
+def load_scene(name_or_path: str | Path = "koyna", overrides=None):
     """Load a shipped scene by name or a TOML file by path, apply ``--set`` overrides
     (list of 'a.b.c=value' strings), validate and return a frozen ``Scene``."""
     p = scene_path(name_or_path)

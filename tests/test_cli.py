@@ -100,3 +100,46 @@ def test_run_paper_smoke(tmp_path, capsys):
     assert main(["compare", str(tmp_path / "koyna_alpha2"), str(tmp_path / "koyna_alpha1"),
                  "--out", str(tmp_path / "c2")]) == 0
     assert (tmp_path / "c2" / "results.md").exists()
+
+
+# ---- scene kinds: material point (no NGSolve) and DCB -------------------------------------
+def test_material_point_scene_never_imports_ngsolve(tmp_path):
+    import json
+    import subprocess
+    import sys
+    code = ("import sys; from ngs_driver.cli import main; "
+            f"rc = main(['run', 'point_mode_I', '--out', r'{tmp_path}', '--quiet']); "
+            "assert rc == 0, rc; "
+            "bad = [m for m in ('ngsolve', 'netgen') if m in sys.modules]; "
+            "assert not bad, bad")
+    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    s = json.loads((tmp_path / "summary.json").read_text())
+    # mode I to 1.5 l_Nc: the law's dissipation is exactly G_I (no lag, docs §1.2)
+    assert s["results"]["dissipated_final"] == pytest.approx(250.0, rel=1e-10)
+    assert s["law"]["friction"] is False and s["law"]["damage"] is False
+    assert (tmp_path / "history.csv").exists()
+
+
+def test_shear_under_pressure_scene_plateau(tmp_path):
+    import json
+    from ngs_driver.cli import main
+    assert main(["run", "point_shear_pressure", "--out", str(tmp_path), "--quiet"]) == 0
+    s = json.loads((tmp_path / "summary.json").read_text())
+    import numpy as np
+    lines = (tmp_path / "history.csv").read_text().splitlines()
+    head = lines[0].split(",")
+    data = np.array([[float(v) for v in ln.split(",")] for ln in lines[1:]])
+    FT = data[:, head.index("FT")]
+    # after debonding the shear traction sits on the Coulomb plateau f |F_N| = 0.3 x 1 MPa
+    assert np.abs(FT[-20:]).max() == pytest.approx(0.3e6, rel=1e-10)
+    assert s["results"]["converged"]
+
+
+def test_dcb_scene_dry_run_and_bad_kind(tmp_path, capsys):
+    from ngs_driver.cli import main
+    assert main(["run", "dcb", "--dry-run"]) == 0
+    assert '"kind": "dcb"' in capsys.readouterr().out
+    assert main(["run-paper", "point_mode_I", "--out", str(tmp_path)]) == 2
+    assert "allowed: a koyna scene" in capsys.readouterr().err
+    assert not any(tmp_path.iterdir())

@@ -86,5 +86,11 @@ def test_unknown_key_in_file(tmp_path):
 
 
 def test_shipped_dir_has_only_valid_scenes():
+    from ngs_driver.scene import SCENE_KINDS
+    kinds = []
     for p in SCENE_DIR.glob("*.toml"):
-        assert isinstance(load_scene(p), Scene)
+        sc = load_scene(p)
+        assert isinstance(sc, SCENE_KINDS[sc.kind])
+        kinds.append(sc.kind)
+    assert {"koyna", "material_point", "dcb"} <= set(kinds)
+    assert isinstance(load_scene("koyna"), Scene)
