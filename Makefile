@@ -21,6 +21,7 @@ venv: $(STAMP)
 
 run: $(STAMP)
 	$(VPY) -m ngs_driver run-paper koyna --out results
+	$(VPY) -m ngs_driver run-paper koyna --set ground_motion.scale=0.2 --out results/scale_0.2
 
 test: $(STAMP)
 	$(VPY) -m pytest -q --benchmark-disable tests
