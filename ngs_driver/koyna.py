@@ -398,7 +398,8 @@ def run(scene, outdir=None, resume: bool = False, progress: bool = True,
     # ---- time loop ------------------------------------------------------------------------
     from tqdm import tqdm
 
-    bar = tqdm(total=n_steps, initial=k_start, disable=not progress, unit="step",
+    # disable=None: tqdm turns itself off when stderr is not a terminal (logs stay readable)
+    bar = tqdm(total=n_steps, initial=k_start, disable=None if progress else True, unit="step",
                desc=f"{scene.name} a={scene.interface.alpha:g}", dynamic_ncols=True)
     t_dyn0 = time.perf_counter()
     steps_this_call = 0
