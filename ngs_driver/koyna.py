@@ -459,6 +459,11 @@ def run(scene, outdir=None, resume: bool = False, progress: bool = True,
     finally:
         bar.close()
     t_dynamic = dyn_wall_before + time.perf_counter() - t_dyn0
+    if stopped is not None and snaps["step"][-1] != stopped["step"]:   # D(x) where it stopped
+        snaps["step"].append(stopped["step"])
+        snaps["t"].append(stopped["t"])
+        snaps["D"].append(solver.state.damage.copy())
+        snaps["kappa"].append(solver.state.kappa.copy())
 
     # ---- outputs ----------------------------------------------------------------------
     H = hist.arrays()
