@@ -62,8 +62,8 @@ def _point(gN, gT1, gT2, ko, Do, sepo, s1, s2, coh, contact, friction, damage):
     u = gNp / lN
     t1 = gT1 / lT
     t2 = gT2 / lT
-    v = _norm(t1, t2)
-    lam = _norm(u, v)
+    v2 = t1 * t1 + t2 * t2                          # |g_T|^2 / l_Tc^2
+    lam = math.sqrt(u * u + v2)
 
     bonded_old = ko < 1.0 and Do < 1.0
 
@@ -87,7 +87,7 @@ def _point(gN, gT1, gT2, ko, Do, sepo, s1, s2, coh, contact, friction, damage):
     H0 = sig * ilN * hN
 
     # separation for damage (docs §1.5): g = hypot(<gN>, |gT|)
-    gs = _norm(gNp, _norm(gT1, gT2))
+    gs = math.sqrt(gNp * gNp + gT1 * gT1 + gT2 * gT2)
 
     # ---- cyclic damage, Eq. 7 ------------------------------------------------------------
     Dn = Do
@@ -99,9 +99,14 @@ def _point(gN, gT1, gT2, ko, Do, sepo, s1, s2, coh, contact, friction, damage):
             dg = gs - sepo
             if dg > 0.0:
                 alpha, beta, gmax, fth, objective = damage
-                amag = _norm(a0, _norm(a1, a2))
-                r = s * amag / sig                   # F/sigma^t, independent of D
-                x = r - fth
+                amag2 = a0 * a0 + a1 * a1 + a2 * a2
+                if fth == 0.0 and beta == 0.0:       # r > 0 <=> s > 0 and |a| > 0: no sqrt
+                    amag = 1.0
+                    x = 1.0 if (s > 0.0 and amag2 > 0.0) else 0.0
+                else:
+                    amag = math.sqrt(amag2)
+                    r = s * amag / sig               # F/sigma^t, independent of D
+                    x = r - fth
                 if x > 0.0:
                     B = 1.0 if beta == 0.0 else _pow(x, beta)
                     base = dg / gmax
@@ -156,7 +161,7 @@ def _point(gN, gT1, gT2, ko, Do, sepo, s1, s2, coh, contact, friction, damage):
         hi = kn if kn < 1.0 else 1.0
         lo = ko if ko > lm else lm
         if hi > lo:
-            q = lN * (sig * u * u + tau * v * v) / (lam * lam)
+            q = lN * (sig * u * u + tau * v2) / (lam * lam)
             dphi += (1.0 - Do) * 0.5 * q * (hi - lo) * ilm1
     if Dn > Do:
         dphi += 0.5 * s * (a0 * gNp + a1 * gT1 + a2 * gT2) * (Dn - Do)
