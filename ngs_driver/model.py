@@ -606,38 +606,12 @@ def segment_to_segment(mesh, fes, Vd, Vr, free, n_gauss, normal, tangent) -> "In
 
 def _rock_nts(mesh, fes, Vd, Vr, xs, ys, normal, tangent) -> sp.csr_matrix:
     """-(rock displacement) at the points, node-to-segment on "interface_rock" (order 1)."""
-    import ngsolve as ngs
-
-    segs = []
-    for el in mesh.Boundaries("interface_rock").Elements():
-        vs = [v.nr for v in el.vertices]
-        P = np.array([mesh.vertices[v].point[:2] for v in vs])
-        dofs = [_vertex_xy_dofs(Vr, Vr.GetDofNrs(ngs.NodeId(ngs.VERTEX, v))) for v in vs]
-        segs.append((P, dofs))
-    off = Vd.ndof
-    npts = xs.size
+    rseg = _p1_segments(mesh, Vr, "interface_rock")
     rows, cols, vals = [], [], []
-    for i in range(npts):
-        X = np.array([xs[i], ys[i]])
-        best = None
-        for P, dofs in segs:
-            t = P[1] - P[0]
-            L2 = t @ t
-            s = np.clip((X - P[0]) @ t / L2, 0.0, 1.0)
-            dist = np.linalg.norm(P[0] + s * t - X)
-            if best is None or dist < best[0] - 1e-14:
-                best = (dist, s, dofs)
-        _, s, dofs = best
-        N = (1.0 - s, s)
-        for a in range(2):
-            for comp in range(2):
-                col = off + dofs[a][comp]
-                for r, e in ((2 * i, normal), (2 * i + 1, tangent)):
-                    if e[comp] != 0.0:
-                        rows.append(r)
-                        cols.append(col)
-                        vals.append(-N[a] * e[comp])
-    return sp.csr_matrix((vals, (rows, cols)), shape=(2 * npts, fes.ndof))
+    for i in range(xs.size):
+        _p1_rows(rseg, Vd.ndof, np.array([xs[i], ys[i]]), -1.0, normal, tangent, rows, cols,
+                 vals, i)
+    return sp.csr_matrix((vals, (rows, cols)), shape=(2 * xs.size, fes.ndof))
 
 
 def build_from_scene(scene, **overrides) -> Model:

@@ -303,6 +303,19 @@ class NewmarkSolver:
         return rnorm <= self.tol_residual and (energy <= self.tol_energy * energy0
                                                or rnorm <= 1e-3 * self.tol_residual)
 
+    def _status(self, rnorm, energy, energy0, it):
+        """Newton control shared by both methods: True converged, False failed (cut the
+        step), None iterate on."""
+        if not np.isfinite(rnorm) or rnorm > 1e12:
+            return False
+        if energy0 is not None and self._converged(rnorm, energy, energy0):
+            return True
+        if energy0 is None and rnorm <= 1e-3 * self.tol_residual:
+            return True
+        if it >= self.max_iter:
+            return False
+        return None
+
     @staticmethod
     def _dof_idx(pts):
         d = np.empty(2 * pts.size, np.int64)
@@ -358,14 +371,11 @@ class NewmarkSolver:
         energy = np.inf
         it = 0
         while True:
-            if not np.isfinite(rnorm) or rnorm > 1e12:
+            status = self._status(rnorm, energy, energy0, it)
+            if status is False:
                 return (False,) + (None,) * 6 + (it, rnorm)
-            if energy0 is not None and self._converged(rnorm, energy, energy0):
+            if status:
                 break
-            if energy0 is None and rnorm <= 1e-3 * self.tol_residual:
-                break
-            if it >= self.max_iter:
-                return (False,) + (None,) * 6 + (it, rnorm)
             it += 1
             # Newton direction. Jacobian block over the "strong" active points, whose tangent
             # differs from K0 by more than jacobian_tol (relative); the weakly nonlinear ones
@@ -496,14 +506,11 @@ class NewmarkSolver:
         it = 0
         n = self.npts
         while True:
-            if not np.isfinite(rnorm) or rnorm > 1e12:
+            status = self._status(rnorm, energy, energy0, it)
+            if status is False:
                 return (False,) + (None,) * 6 + (it, rnorm)
-            if energy0 is not None and self._converged(rnorm, energy, energy0):
+            if status:
                 break
-            if energy0 is None and rnorm <= 1e-3 * self.tol_residual:
-                break
-            if it >= self.max_iter:
-                return (False,) + (None,) * 6 + (it, rnorm)
             it += 1
             # at g_N == 0 exactly the law's one-sided tangent has no normal stiffness (the
             # kink between cohesion and contact); use the elastic one there

@@ -133,3 +133,17 @@ def test_describe_no_build():
     assert d["will_build"]["law"]["friction"] is True
     assert d["will_build"]["law"]["scaling"] is True
     assert d["scene"]["interface"]["g_max"] == pytest.approx(4 * 2 * 250 / 3e6, rel=1e-4)
+
+
+def test_vtk_time_series_written(tmp_path):
+    """output.vtk_every = k writes a VTK file every k steps (ParaView time series)."""
+    from ngs_driver.koyna import run
+    from ngs_driver.scene import load_scene
+    sc = load_scene("koyna_smoke", ["output.vtk_every=10", "time.duration=0.04",
+                                    "output.checkpoint_every=0"])
+    run(sc, tmp_path, progress=False)
+    vtus = sorted((tmp_path / "vtk").glob("*.vtu"))
+    # 20 steps, one file every 10 steps: steps 10 and 20 (NGSolve numbers the files)
+    assert len(vtus) == 2, [v.name for v in vtus]
+    assert all(v.stat().st_size > 1000 for v in vtus)
+    assert (tmp_path / "vtk" / "koyna.pvd").exists()          # the time series index
