@@ -303,6 +303,24 @@ class NewmarkSolver:
         return rnorm <= self.tol_residual and (energy <= self.tol_energy * energy0
                                                or rnorm <= 1e-3 * self.tol_residual)
 
+    def _line_search(self, x, dx, rnorm, trial):
+        """Backtracking on the residual norm (halving down to 1/64; Armijo-like decrease).
+        ``trial(x) -> (out, rnorm)``. Returns (s, x + s dx, out, rnorm) or None (no finite
+        trial point)."""
+        s = 1.0
+        while True:
+            xt = x + s * dx
+            try:
+                out, rn_t = trial(xt)
+            except (ValueError, FloatingPointError):
+                out, rn_t = None, np.inf
+            if out is not None and (not self.line_search or s < 1.0 / 64
+                                    or rn_t <= (1.0 - 1e-4 * s) * rnorm):
+                return s, xt, out, rn_t
+            if out is None and s < 1.0 / 64:
+                return None
+            s *= 0.5
+
     def _status(self, rnorm, energy, energy0, it):
         """Newton control shared by both methods: True converged, False failed (cut the
         step), None iterate on."""
@@ -402,21 +420,14 @@ class NewmarkSolver:
             if energy0 is None:
                 energy0 = max(en, 1e-300)
             # backtracking line search on the residual norm
-            s = 1.0
-            while True:
-                gt = g + s * dg
-                try:
-                    out = resid(gt, act, ad)
-                    rn_t = np.linalg.norm(out[4]) / max(np.linalg.norm(gt), gscale)
-                except (ValueError, FloatingPointError):
-                    out, rn_t = None, np.inf
-                if (not self.line_search or rn_t <= (1.0 - 1e-4 * s) * rnorm or s < 1.0 / 64) \
-                        and out is not None:
-                    break
-                if out is None and s < 1.0 / 64:
-                    return (False,) + (None,) * 6 + (it, np.inf)
-                s *= 0.5
-            g = gt
+            def trial(x):
+                o = resid(x, act, ad)
+                return o, np.linalg.norm(o[4]) / max(np.linalg.norm(x), gscale)
+
+            ls = self._line_search(g, dg, rnorm, trial)
+            if ls is None:
+                return (False,) + (None,) * 6 + (it, np.inf)
+            s, g, out, rn_t = ls
             t, T, new, phi, R, act, ad = out
             energy = s * en
             rnorm = rn_t
@@ -528,21 +539,14 @@ class NewmarkSolver:
             en = abs(np.dot(du, r))
             if energy0 is None:
                 energy0 = max(en, 1e-300)
-            s = 1.0
-            while True:
-                ut = u + s * du
-                try:
-                    out = resid(ut)
-                    rn_t = np.linalg.norm(out[4]) / fscale
-                except (ValueError, FloatingPointError):
-                    out, rn_t = None, np.inf
-                if (not self.line_search or rn_t <= (1.0 - 1e-4 * s) * rnorm or s < 1.0 / 64) \
-                        and out is not None:
-                    break
-                if out is None and s < 1.0 / 64:
-                    return (False,) + (None,) * 6 + (it, np.inf)
-                s *= 0.5
-            u = ut
+            def trial(x):
+                o = resid(x)
+                return o, np.linalg.norm(o[4]) / fscale
+
+            ls = self._line_search(u, du, rnorm, trial)
+            if ls is None:
+                return (False,) + (None,) * 6 + (it, np.inf)
+            s, u, out, rn_t = ls
             g, t, T, new, r = out
             energy = s * en
             rnorm = rn_t
