@@ -523,12 +523,6 @@ class NewmarkSolver:
             if status:
                 break
             it += 1
-            # at g_N == 0 exactly the law's one-sided tangent has no normal stiffness (the
-            # kink between cohesion and contact); use the elastic one there
-            kink = (g[0::2] == 0.0)
-            if kink.any():
-                T = T.copy()
-                T[kink] = np.diag(self.k0)
             WT = sp.bsr_matrix((T * self.w[:, None, None], np.arange(n), np.arange(n + 1)),
                                shape=(2 * n, 2 * n))
             J = A_lin + c * (self.BT @ WT.tocsr() @ self.B)
