@@ -153,6 +153,14 @@ class History:
         return path
 
 
+def _buffers(m, n, dim):
+    """History buffers (NaN until an increment is written): traction, tangent, damage,
+    lambda_h, dissipated, status."""
+    nan = lambda *sh: np.full(sh, np.nan)  # noqa: E731
+    return (nan(m, n, dim), nan(m, n, dim, dim), nan(m, n), nan(m, n), nan(m, n),
+            np.zeros((m, n), dtype=np.int8))
+
+
 def _work(gap, traction):
     """Cumulative trapezoid integral of traction·dgap along rows, (m, n)."""
     dg = np.diff(gap, axis=0)
@@ -240,12 +248,7 @@ def gap_path(law: InterfaceLaw, times, gaps, substeps=1, state: InterfaceState |
     if st.n != n or st.dim != dim:
         raise ValueError(f"state of {st.n} points in {st.dim}D does not match gaps "
                          f"({n} points, dim {dim})")
-    F = np.full((m, n, dim), np.nan)
-    T = np.full((m, n, dim, dim), np.nan)
-    D = np.full((m, n), np.nan)
-    K = np.full((m, n), np.nan)
-    P = np.full((m, n), np.nan)
-    status = np.zeros((m, n), dtype=np.int8)
+    F, T, D, K, P, status = _buffers(m, n, dim)
     message = ""
     G = np.ascontiguousarray(G)
     for i in range(m):
@@ -333,12 +336,7 @@ def mixed_control(law: InterfaceLaw, times, targets, control, substeps=1,
     st = law.initial_state(n, dim) if state is None else state
     sig = law.cohesive.sigma_max
     G = np.full((m, n, dim), np.nan)
-    F = np.full((m, n, dim), np.nan)
-    T = np.full((m, n, dim, dim), np.nan)
-    D = np.full((m, n), np.nan)
-    K = np.full((m, n), np.nan)
-    P = np.full((m, n), np.nan)
-    status = np.zeros((m, n), dtype=np.int8)
+    F, T, D, K, P, status = _buffers(m, n, dim)
     iters = np.zeros((m, n), dtype=np.int16)
     resid = np.zeros((m, n))
     alive = np.ones(n, dtype=bool)
