@@ -14,7 +14,7 @@ export MPLBACKEND ?= Agg
 $(STAMP): pyproject.toml
 	test -x $(VPY) || $(PY) -m venv $(VENV)
 	$(VPY) -m pip install --quiet --upgrade pip
-	$(VPY) -m pip install --quiet -e ".[fe,dev]"
+	$(VPY) -m pip install --quiet -e ".[fe,dev,studies]"
 	rm -f $(VENV)/.installed-* && touch $@
 
 venv: $(STAMP)

@@ -79,11 +79,11 @@ def _load(scene, overrides):
 
 def _dry_run(sc, outdir) -> int:
     if sc.kind == "material_point":
-        from .scene_runs import describe_point as describe
+        from .apps.point import describe_point as describe
     elif sc.kind == "dcb":
-        from .scene_runs import describe_dcb as describe
+        from .apps.dcb import describe_dcb as describe
     else:
-        from .koyna import describe
+        from .setup import describe
     d = describe(sc)
     d["will_build"]["output_dir"] = str(outdir)
     print(json.dumps(d, indent=2))
@@ -111,8 +111,10 @@ def cmd_run(a) -> int:
 
 def _run_other(sc, outdir, progress) -> int:
     """material_point (never imports NGSolve) and dcb scenes."""
-    from . import scene_runs
-    fn = scene_runs.run_point if sc.kind == "material_point" else scene_runs.run_dcb_scene
+    if sc.kind == "material_point":
+        from .apps.point import run_point as fn
+    else:
+        from .apps.dcb import run_dcb_scene as fn
     try:
         s = fn(sc, outdir)
     except (ValueError, FileNotFoundError) as e:
@@ -124,7 +126,7 @@ def _run_other(sc, outdir, progress) -> int:
 
 
 def _run_one(sc, outdir, resume, progress) -> int:
-    from .koyna import run
+    from .run.dam import run
     try:
         run(sc, outdir, resume=resume, progress=progress)
     except KeyboardInterrupt:
@@ -171,7 +173,7 @@ def cmd_run_paper(a) -> int:
 
 
 def _compare(runs: dict, out) -> int:
-    from .outputs import compare_runs
+    from .out.report import compare_runs
     for d in runs.values():
         if not (pathlib.Path(d) / "summary.json").exists():
             return _err(f"compare: {d} has no summary.json (run not finished)")
@@ -198,7 +200,7 @@ def cmd_modal(a) -> int:
         sc = _load(a.scene, a.overrides)
     except ValueError as e:
         return _err(str(e))
-    from .modal import run_modal
+    from .fe.modal import run_modal
     out = pathlib.Path(a.out or sc.output.dir)
     md, res, damp = run_modal(sc, out, a.n)
     print(f"scene {sc.name}: nfree {md.nfree}, interface points {md.interface.npts}")

@@ -159,26 +159,6 @@ class Scene:
     def to_dict(self) -> dict:
         return _to_plain(dataclasses.asdict(self))
 
-    # helpers for the model builder
-    def material(self, region: str):
-        from .model import Material as M
-
-        m = getattr(self.materials, region)
-        return M(m.E, m.nu, m.rho)
-
-    def model_kwargs(self) -> dict:
-        """Keyword arguments for ``model.build_model``."""
-        g, m, L = self.geometry, self.mesh, self.loads
-        return dict(foundation=g.foundation, order=m.order, gauss_points=m.gauss_points,
-                    dam=self.material("dam"), rock=self.material("rock"),
-                    gravity=L.gravity, reservoir_level=L.reservoir_level,
-                    water_density=L.water_density, lumped_mass=m.lumped_mass,
-                    rock_sides=g.rock_sides, include_rock_weight=L.rock_weight,
-                    h_heel=m.h_heel, h_coarse=m.h_coarse, h_interface=m.h_interface,
-                    heel_zone=m.heel_zone, growth=m.growth, grading=m.grading,
-                    extent_up=g.extent_up, extent_down=g.extent_down,
-                    extent_depth=g.extent_depth, matching=g.matching)
-
 
 @dataclass(frozen=True)
 class PointPath:

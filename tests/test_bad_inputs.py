@@ -7,7 +7,7 @@ import pytest
 from interfacelaw import (CohesiveParams, ContactParams, DamageParams, FrictionParams,
                           InterfaceLaw)
 from interfacelaw.scaling import SizeScaling, fit_power_law
-from ngs_driver import ground_motion as gm
+from ngs_driver.setup import ground_motion as gm
 from ngs_driver.scene import load_scene
 
 COH = CohesiveParams.from_fracture_energy(3e6, 3e6, 250.0, 0.2, 1.0)

@@ -7,7 +7,7 @@ import pytest
 
 pytest.importorskip("ngsolve")
 
-from ngs_driver import dcb  # noqa: E402
+from ngs_driver.apps import dcb  # noqa: E402
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 

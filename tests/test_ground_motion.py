@@ -1,4 +1,4 @@
-"""Tests of ngs_driver.ground_motion (numpy/scipy only; whole file runs in a few seconds)."""
+"""Tests of ngs_driver.setup.ground_motion (numpy/scipy only; whole file runs in a few seconds)."""
 
 from __future__ import annotations
 
@@ -7,8 +7,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from ngs_driver import ground_motion as gmm
-from ngs_driver.ground_motion import (
+from ngs_driver.setup import ground_motion as gmm
+from ngs_driver.setup.ground_motion import (
     G,
     GroundMotion,
     baseline_correct,

@@ -1,4 +1,4 @@
-"""Tests of the linear Koyna model (ngs_driver.geometry / model / modal)."""
+"""Tests of the linear Koyna model (ngs_driver.fe.geometry / model / modal)."""
 
 import math
 import os
@@ -11,9 +11,9 @@ import pytest
 
 ngs = pytest.importorskip("ngsolve")
 
-from ngs_driver import geometry as geom  # noqa: E402
-from ngs_driver.model import build_model, CLASSIC_KOYNA, PAPER_DAM  # noqa: E402
-from ngs_driver.modal import (modal_analysis, paper_k0, rayleigh_coefficients,  # noqa: E402
+from ngs_driver.fe import geometry as geom  # noqa: E402
+from ngs_driver.fe.model import build_model, CLASSIC_KOYNA, PAPER_DAM  # noqa: E402
+from ngs_driver.fe.modal import (modal_analysis, paper_k0, rayleigh_coefficients,  # noqa: E402
                               rayleigh_ratio)
 
 pytestmark = pytest.mark.fe

@@ -13,8 +13,9 @@ import scipy.sparse.linalg as spl
 ngs = pytest.importorskip("ngsolve")
 
 from interfacelaw import CohesiveParams, ContactParams, InterfaceLaw  # noqa: E402
-from ngs_driver import geometry as geom  # noqa: E402
-from ngs_driver.model import _vec, build_model  # noqa: E402
+from ngs_driver.fe import geometry as geom  # noqa: E402
+from ngs_driver.fe.model import build_model
+from ngs_driver.fe.ngs_helpers import vec  # noqa: E402
 
 
 @pytest.mark.parametrize("n_top,n_bot", [(4, 3), (3, 7), (8, 5), (5, 5)])
@@ -33,7 +34,7 @@ def test_uniform_traction_is_transmitted_exactly(n_top, n_bot):
     lf += (-sx * vr[0] - tau * vr[1]) * ngs.ds("rock_left")
     lf += (sx * vr[0] + tau * vr[1]) * ngs.ds("rock_right")
     lf.Assemble()
-    f = _vec(lf)[md.free]
+    f = vec(lf)[md.free]
     # a linear law (stays elastic: strength far above the applied tractions)
     law = InterfaceLaw(CohesiveParams(3e9, 3e9, 1e-2, 1e-2, 0.2), ContactParams())
     k = np.array([law.cohesive.k_normal, law.cohesive.k_tangential])

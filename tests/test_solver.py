@@ -1,6 +1,6 @@
-"""Tests of ngs_driver.solver (condensed interface Newton vs full Newton, Newmark, step cutting).
+"""Tests of ngs_driver.solve.newmark (condensed interface Newton vs full Newton, Newmark, step cutting).
 
-The model is ngs_driver.solver_toymodel.block_on_block: a 4 m x 2 m elastic "dam" on an
+The model is toymodel.block_on_block: a 4 m x 2 m elastic "dam" on an
 8 m x 2 m "rock", P1 triangles, matching interface nodes, 2 Gauss points per interface segment.
 Low strengths (30 kPa) so a crest load opens, closes, slides and damages the interface.
 """
@@ -11,8 +11,8 @@ pytest.importorskip("scipy")
 
 from interfacelaw import (CohesiveParams, ContactParams, DamageParams, FrictionParams,
                           InterfaceLaw)
-from ngs_driver.solver import NewmarkSolver, SolverError
-from ngs_driver.solver_toymodel import block_on_block
+from ngs_driver.solve.newmark import NewmarkSolver, SolverError
+from toymodel import block_on_block
 
 
 @pytest.fixture(scope="module")

@@ -95,13 +95,13 @@ def scene(overrides=()):
 
 
 def model_of(sc):
-    from ngs_driver.model import build_from_scene
+    from ngs_driver.fe.model import build_from_scene
     return build_from_scene(sc)
 
 
 def scene_law(sc):
     """The run's law at t = 0 (size-scaled to b_ref, as koyna.run does before the static step)."""
-    from ngs_driver.koyna import build_law, build_scaling
+    from ngs_driver.setup import build_law, build_scaling
     law = build_law(sc)
     scal = build_scaling(sc, law)
     return scal.update(law, 0.0) if scal is not None else law
@@ -121,7 +121,7 @@ def linear_law(sc):
 
 
 def rayleigh(model, sc):
-    from ngs_driver.modal import damping_from_modes, modal_analysis
+    from ngs_driver.fe.modal import damping_from_modes, modal_analysis
     law = scene_law(sc)
     modal = modal_analysis(model, 6, law.cohesive.k_normal, law.cohesive.k_tangential)
     d = sc.damping
@@ -131,7 +131,7 @@ def rayleigh(model, sc):
 
 def loads(model, sc, n_steps, start=START):
     """(f_static, list of f_k for k = 0..n_steps, ax, ay) as in koyna.run."""
-    from ngs_driver.koyna import load_ground_motion
+    from ngs_driver.setup import load_ground_motion
     gm = load_ground_motion(sc)
     times = DT * np.arange(n_steps + 1)
     ax, ay = gm.at(start + times)
@@ -141,7 +141,7 @@ def loads(model, sc, n_steps, start=START):
 
 
 def make_solver(model, law, a0a1, method="condensed", **kw):
-    from ngs_driver.solver import NewmarkSolver
+    from ngs_driver.solve.newmark import NewmarkSolver
     a0, a1 = a0a1
     C = (a0 * model.M + a1 * model.K).tocsr()
     return NewmarkSolver(model.K, model.M, C, model.interface.B, model.interface.w, law,
@@ -161,7 +161,7 @@ def start_solver(s, fs, fk, zero_accel=False):
 # part 1: scaling with DOFs and with interface points (koyna.run, short strong-part runs)
 # ---------------------------------------------------------------------------------------------
 def short_run(model, sc, outdir) -> dict:
-    from ngs_driver.koyna import run
+    from ngs_driver.run.dam import run
     s = run(sc, outdir, model=model, plots=False, progress=False)
     lines = [ln for ln in (pathlib.Path(outdir) / "timeseries.csv").read_text().splitlines()
              if ln and not ln.startswith("#")]

@@ -3,7 +3,7 @@ h_int (issue #6, "Error against run time").  ``main(fast, outdir)`` writes
 dcb_n.png, dcb_h.png, dcb_oscillation.png and dcb.md into ``outdir``.
 
 Errors of each run against (i) the corrected beam theory + LEFM (Kanninen root rotation
-chi = 0.64 and Timoshenko shear; ``ngs_driver.dcb.beam_theory_curve``) and (ii) a fine-mesh
+chi = 0.64 and Timoshenko shear; ``ngs_driver.apps.dcb.beam_theory_curve``) and (ii) a fine-mesh
 numerical reference of the same cohesive model (the discretisation error that n and h_int
 control; (i) also contains the model error of a finite process zone).
   peak : |P_max - P_max,ref| / P_max,ref
@@ -23,7 +23,7 @@ ROOT = pathlib.Path(__file__).resolve().parents[1]
 if str(ROOT) not in sys.path:
     sys.path.insert(0, str(ROOT))
 
-from ngs_driver import dcb  # noqa: E402
+from ngs_driver.apps import dcb  # noqa: E402
 
 NS = (1, 2, 3, 5, 8)
 

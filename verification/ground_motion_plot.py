@@ -18,7 +18,7 @@ ROOT = Path(__file__).resolve().parents[1]
 if str(ROOT) not in sys.path:
     sys.path.insert(0, str(ROOT))
 
-from ngs_driver.ground_motion import G, load_default, response_spectrum, significant_duration  # noqa: E402
+from ngs_driver.setup.ground_motion import G, load_default, response_spectrum, significant_duration  # noqa: E402
 
 
 def main(argv=None) -> Path:

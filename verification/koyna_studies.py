@@ -118,7 +118,7 @@ def _same_scene(summary: dict, scene_name: str, sets: dict) -> bool:
 
 def worker(outdir: str, scene_name: str, overrides: list[str]) -> int:
     """One run (subprocess entry): no plots, no progress bar."""
-    from ngs_driver.koyna import run
+    from ngs_driver.run.dam import run
     from ngs_driver.scene import load_scene
     run(load_scene(scene_name, overrides), outdir, progress=False, plots=False)
     return 0

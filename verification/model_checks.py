@@ -25,9 +25,9 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from ngs_driver import geometry as geom  # noqa: E402
-from ngs_driver.model import build_model, CLASSIC_KOYNA, PAPER_DAM  # noqa: E402
-from ngs_driver.modal import modal_analysis, paper_k0  # noqa: E402
+from ngs_driver.fe import geometry as geom  # noqa: E402
+from ngs_driver.fe.model import build_model, CLASSIC_KOYNA, PAPER_DAM  # noqa: E402
+from ngs_driver.fe.modal import modal_analysis, paper_k0  # noqa: E402
 
 OUT = ROOT / "verification" / "out"
 

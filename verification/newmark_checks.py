@@ -30,7 +30,7 @@ def linear_law(k0=9.0e10, lambda_max=0.2, sigma=3.0e9):
 
 
 def build(fast: bool):
-    from ngs_driver.model import build_model
+    from ngs_driver.fe.model import build_model
     kw = dict(h_coarse=8.0, h_interface=4.0, h_heel=2.0, heel_zone=0.0, growth=1.5) if fast \
         else dict(h_coarse=4.0, h_interface=2.0, h_heel=0.5, heel_zone=2.0)
     return build_model(**kw)
@@ -38,7 +38,7 @@ def build(fast: bool):
 
 def free_vibration(model, law, n_steps, dt):
     """Undamped, unloaded motion from the static deflection under the water load."""
-    from ngs_driver.solver import NewmarkSolver
+    from ngs_driver.solve.newmark import NewmarkSolver
     s = NewmarkSolver(model.K, model.M, None, model.interface.B, model.interface.w, law, dt=dt)
     s.static(model.f_water)
     f0 = np.zeros(model.nfree)
@@ -55,7 +55,7 @@ def free_vibration(model, law, n_steps, dt):
 
 def forced(model, law, dt, duration, C, gm):
     """Crest u_x history (at the times of gm.t) under the record, starting at rest."""
-    from ngs_driver.solver import NewmarkSolver
+    from ngs_driver.solve.newmark import NewmarkSolver
     s = NewmarkSolver(model.K, model.M, C, model.interface.B, model.interface.w, law, dt=dt)
     Mrx, Mry = model.M @ model.r_x, model.M @ model.r_y
     n = int(round(duration / dt))
@@ -73,8 +73,8 @@ def forced(model, law, dt, duration, C, gm):
 
 
 def main(fast: bool = False, outdir=OUT) -> str:
-    from ngs_driver.ground_motion import load_default
-    from ngs_driver.modal import damping_from_modes, modal_analysis
+    from ngs_driver.setup.ground_motion import load_default
+    from ngs_driver.fe.modal import damping_from_modes, modal_analysis
     outdir = pathlib.Path(outdir)
     outdir.mkdir(parents=True, exist_ok=True)
     model = build(fast)

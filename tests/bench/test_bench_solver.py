@@ -1,4 +1,4 @@
-"""Benchmarks of ngs_driver.solver (issue #7): time per implicit step with the nonlinear
+"""Benchmarks of ngs_driver.solve.newmark (issue #7): time per implicit step with the nonlinear
 interface, condensed vs full Newton, at three mesh sizes of the block-on-block toy model
 (ngs_driver/solver_toymodel.py; ~0.9k, 3.3k, 12.5k DOFs) and at 128 vs 512 interface points.
 
@@ -11,8 +11,8 @@ import pytest
 
 from interfacelaw import (CohesiveParams, ContactParams, DamageParams, FrictionParams,
                           InterfaceLaw)
-from ngs_driver.solver import NewmarkSolver
-from ngs_driver.solver_toymodel import block_on_block
+from ngs_driver.solve.newmark import NewmarkSolver
+from toymodel import block_on_block
 
 DT = 2e-3
 _MODELS = {}

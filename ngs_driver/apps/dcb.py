@@ -34,9 +34,14 @@ import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as sla
 
+import pathlib
+
 from interfacelaw import CohesiveParams, ContactParams, InterfaceLaw
 
-from .model import Material, _block_diag, _find_vertex, _to_scipy, build_interface
+from ..out.files import atomic_write_json, atomic_write_text, environment_info
+from ..fe.coupling import block_diag, build_interface
+from ..fe.model import Material
+from ..fe.ngs_helpers import find_vertex, to_scipy
 
 CHI_KANNINEN = 0.64   # Kanninen (1973) beam on a Winkler foundation: 1/lambda = h / 6^(1/4)
 
@@ -242,7 +247,7 @@ def build_dcb(spec: DCBSpec = DCBSpec(), h_int: float = 0.02, n_gauss: int = 5,
     a += spec.b * ngs.InnerProduct(sigma(ub), ngs.Sym(ngs.Grad(vb))) * ngs.dx("bottom")
     a.Assemble()
     ndof = fes.ndof
-    K = _to_scipy(a.mat, (ndof, ndof))
+    K = to_scipy(a.mat, (ndof, ndof))
     K = ((K + K.T) * 0.5).tolil()
 
     off = {"top": 0, "bottom": Vt.ndof}
@@ -286,7 +291,7 @@ def build_dcb(spec: DCBSpec = DCBSpec(), h_int: float = 0.02, n_gauss: int = 5,
 
 
 def _vertex_at(mesh, x, y, tol=1e-9) -> int:
-    return _find_vertex(mesh, x, y, tol=tol ** 2 * 1e6)
+    return find_vertex(mesh, x, y, tol=tol ** 2 * 1e6)
 
 
 # ------------------------------------------------------------------------------ solver
@@ -394,7 +399,7 @@ def solve_dcb(prob: DCBProblem, deltas, law: InterfaceLaw | None = None, rtol: f
 
     def assemble(Tw):
         # S + B^T blockdiag(w T) B  (sparse product, added to the dense Schur complement)
-        return S + (BGT @ _block_diag(Tw) @ BG).toarray()
+        return S + (BGT @ block_diag(Tw) @ BG).toarray()
 
     def solve(u0, d_new, secant=False):
         u = u0.copy()
@@ -491,3 +496,30 @@ def run_dcb(spec: DCBSpec = DCBSpec(), h_int: float = 0.02, n_gauss: int = 5,
     delta_max = 3.0 * d_c if delta_max is None else delta_max
     targets = np.concatenate([[0.6 * d_c], np.linspace(0.6 * d_c, delta_max, n_steps + 1)[1:]])
     return solve_dcb(prob, targets, **solver_kw), prob
+
+
+def describe_dcb(scene) -> dict:
+    return {"scene": scene.to_dict(), "will_build": {"kind": "dcb", "ngsolve": True}}
+
+
+
+def run_dcb_scene(scene, outdir) -> dict:
+    """The DCB of the scene, with its beam-theory/LEFM reference; P(delta) CSV + PNG."""
+    d = scene.dcb
+    spec = DCBSpec(L=d.L, h=d.h, a0=d.a0, E=d.E, nu=d.nu, sigma_max=d.sigma_max, G_I=d.G_I,
+                   lambda_max=d.lambda_max)
+    t0 = time.perf_counter()
+    res, _ = run_dcb(spec, h_int=d.h_int, n_gauss=d.gauss_points, n_steps=d.n_steps,
+                     order=d.order)
+    wall = time.perf_counter() - t0
+    out = pathlib.Path(outdir)
+    out.mkdir(parents=True, exist_ok=True)
+    rows = "\n".join(f"{a:.17g},{b:.17g}" for a, b in zip(res.delta, res.P))
+    atomic_write_text(out / "load_displacement.csv", "delta_m,P_N_per_m\n" + rows + "\n")
+    d_c, P_c = beam_theory_peak(spec)
+    summary = {"scene": scene.to_dict(),
+               "results": {"peak_load": float(np.max(res.P)), "beam_theory_peak": float(P_c),
+                           "complete": bool(res.complete), "message": res.message},
+               "timings": {"solve": wall}, "environment": environment_info()}
+    atomic_write_json(out / "summary.json", summary)
+    return summary

@@ -54,7 +54,7 @@ UNITS: dict[str, float] = {"g": G, "m/s2": 1.0, "cm/s2": 0.01}
 MIN_POINTS = 3  # two intervals are needed to define dt and check that it is uniform
 DT_RTOL = 1e-4  # default tolerance on dt uniformity, relative to dt (see read_two_column)
 
-DEFAULT_FILE = Path(__file__).resolve().parent / "data" / "koyna_synthetic.txt"
+DEFAULT_FILE = Path(__file__).resolve().parent.parent / "data" / "koyna_synthetic.txt"
 
 
 # --------------------------------------------------------------------------------------------

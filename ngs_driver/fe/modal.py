@@ -135,7 +135,7 @@ def main(argv=None):
     """python -m ngs_driver.modal [scene] [--set a.b=v ...] [--out DIR]"""
     import argparse
 
-    from .scene import load_scene
+    from ..scene import load_scene
 
     ap = argparse.ArgumentParser(description="modal analysis of a scene (bonded interface)")
     ap.add_argument("scene", nargs="?", default="koyna")

@@ -1,6 +1,6 @@
 """The Koyna seismic fracture run (issue #6): static state, then the record, step by step.
 
-``run(scene, outdir)`` builds the model (``model.build_from_scene``), the interface law from
+``run(scene, outdir)`` builds the model (``fe.model.build_from_scene``), the interface law from
 ``[interface]``, the size-scale adaptive parameters (``interfacelaw.scaling.SizeScaling``,
 updated at the start of every step from the failed length b = sum of w over debonded points,
 size used max(b_ref, b)), Rayleigh damping from the modal analysis (C = a0 M + a1 K, bulk K
@@ -12,7 +12,7 @@ SYNTHETIC Koyna-like record) enters as the effective load
 
 (relative formulation: rock bottom fixed, displacements relative to the rigid ground motion).
 
-Outputs (``ngs_driver.outputs``): summary.json (written last, atomically), timeseries.csv,
+Outputs (``ngs_driver.out``): summary.json (written last, atomically), timeseries.csv,
 damage_profiles.csv, final_state.npz, PNGs, optional VTK; checkpoint.json/.npz every
 ``output.checkpoint_every`` steps; ``resume=True`` continues from the last checkpoint and gives
 the same results as an uninterrupted run.
@@ -22,25 +22,16 @@ NGSolve is imported only when the model is built (``describe`` for --dry-run nev
 from __future__ import annotations
 
 import json
-import math
 import pathlib
 import time
-from dataclasses import replace
 
 import numpy as np
 
-from .io import Checkpointer, atomic_savez, atomic_write_json, environment_info
-
-FORMULATION = ("relative (rock bottom fixed, ground acceleration as effective inertial load "
-               "-M r a_g(t); displacements relative to the rigid ground motion)")
-DEFAULT_RECORDS = ("synthetic", "default")
-INTERFACE_LENGTH_A0 = 70.0          # a0 of Eq. 11: the whole (bonded) interface [m]
-
-# per-step histories (name -> dtype); the CSV column order
-HIST_KEYS = ("step", "t", "crest_ux", "crest_uy", "iterations", "iterations_failed", "cuts",
-             "substeps", "n_active", "n_debonded", "crack_length", "crack_length_heel",
-             "max_D", "D_heel", "kappa_heel", "size_b", "sigma_max", "wall")
-
+from ..out.files import atomic_savez, atomic_write_json, environment_info
+from ..setup import (FORMULATION, build_law, build_scaling, characteristic_times, law_parts,
+                     load_ground_motion)
+from .checkpoint import Checkpointer
+from .record import History, crack_measures, results_from_history, snapshot_steps
 
 class RunInterrupted(RuntimeError):
     """Raised by ``run(..., max_steps=k)`` after k steps (test hook for stop/resume)."""
@@ -49,169 +40,10 @@ class RunInterrupted(RuntimeError):
 # ---------------------------------------------------------------------------------------------
 # law, scaling, ground motion (no NGSolve)
 # ---------------------------------------------------------------------------------------------
-def build_law(scene):
-    """InterfaceLaw of the scene's [interface] table (cohesive + contact + friction + damage)."""
-    from interfacelaw import (CohesiveParams, ContactParams, DamageParams, FrictionParams,
-                              InterfaceLaw)
-
-    i = scene.interface
-    coh = CohesiveParams.from_fracture_energy(i.sigma_max, i.tau_max, i.G_I, i.lambda_max,
-                                              i.ratio_lTc_lNc)
-    con = None if i.contact == "none" else ContactParams(kind=i.contact)
-    fri = FrictionParams(f=i.friction) if (con is not None and i.friction > 0) else None
-    dmg = (DamageParams(g_max=i.g_max, alpha=i.alpha, beta=i.beta, F_th=i.F_th,
-                        form=i.damage_form) if i.damage else None)
-    return InterfaceLaw(coh, con, fri, dmg)
-
-
-def build_scaling(scene, law):
-    """SizeScaling with the scene's reference parameters (None if interface.scaling is off)."""
-    if not scene.interface.scaling:
-        return None
-    from interfacelaw.scaling import SizeScaling
-
-    f_ref = scene.interface.friction if scene.interface.friction > 0 else 0.3
-    return SizeScaling(law.cohesive, f_ref=f_ref)
-
-
-def law_parts(scene) -> dict:
-    i = scene.interface
-    return {"cohesive": "Geubelle-Baylor bilinear mixed mode",
-            "contact": i.contact,
-            "friction": bool(i.contact != "none" and i.friction > 0),
-            "damage": bool(i.damage), "damage_form": i.damage_form, "damage_alpha": i.alpha,
-            "damage_beta": i.beta, "damage_g_max": i.g_max,
-            "scaling": bool(getattr(i, "scaling", False))}
-
-
-def load_ground_motion(scene):
-    """The scene's record in m/s^2, scaled, components selected, resampled to dt."""
-    from . import ground_motion as gmod
-
-    g = scene.ground_motion
-    rec = g.record
-    if rec in DEFAULT_RECORDS:
-        gm = gmod.load_default()
-    else:
-        p = pathlib.Path(rec)
-        if not p.exists():
-            raise ValueError(f"ground_motion.record = {rec!r}: no such file; allowed: "
-                             f"{list(DEFAULT_RECORDS)} (the shipped SYNTHETIC record) or a path "
-                             "to a .AT2 / two-column (t a_x) / three-column (t a_x a_y) file")
-        if p.suffix.lower() == ".at2":
-            gm = gmod.read_at2(p, "x")
-        else:
-            ncol = None
-            for ln in p.read_text(encoding="utf-8", errors="replace").splitlines():
-                body = ln.split("#", 1)[0].strip()
-                if body:
-                    ncol = len(body.replace(",", " ").split())
-                    break
-            if ncol == 3:
-                gm = gmod.read_three_column(p, g.units)
-            else:
-                gm = gmod.read_two_column(p, g.units, "x")
-        if g.baseline:
-            gm = gmod.baseline_correct(gm)
-    if g.scale != 1.0:
-        gm = gm.scaled(g.scale)
-    fx = 1.0 if "x" in g.components else 0.0
-    fy = 1.0 if "y" in g.components else 0.0
-    if fx == 0.0 or fy == 0.0:
-        gm = gm.scaled((fx, fy))
-    dt = scene.time.dt
-    if abs(gm.dt - dt) > 1e-12 * dt:
-        gm = gmod.resample(gm, dt)
-    return gm
-
-
-def characteristic_times(scene, l_Nc: float) -> dict:
-    """Paper Eq. 11 for the dam concrete: t1 = rho c_L l_Nc/(2 sigma_max), t2 = a0/c_L."""
-    m = scene.materials.dam
-    s = scene.interface.sigma_max
-    try:
-        from interfacelaw.scaling import characteristic_times as ct
-        r = ct(m.E, m.rho, l_Nc, s, INTERFACE_LENGTH_A0)
-        t1, t2, c = float(r.t1), float(r.t2), float(r.c_L)
-    except ImportError:  # pragma: no cover
-        c = math.sqrt(m.E / m.rho)
-        t1, t2 = m.rho * c * l_Nc / (2 * s), INTERFACE_LENGTH_A0 / c
-    return {"t1": t1, "t2": t2, "c_L": c, "a0": INTERFACE_LENGTH_A0, "l_Nc": l_Nc,
-            "material": "dam concrete", "equation": "paper Eq. 11"}
-
-
-def describe(scene) -> dict:
-    """What ``run`` would build (for --dry-run); never imports NGSolve."""
-    m, t = scene.mesh, scene.time
-    n = int(round(t.duration / t.dt))
-    l_nc = 2 * scene.interface.G_I / scene.interface.sigma_max
-    return {"scene": scene.to_dict(),
-            "will_build": {
-                "model": f"Koyna on {scene.geometry.foundation} foundation, P{m.order} "
-                         f"triangles, h_heel {m.h_heel} m, h_interface {m.h_interface} m, "
-                         f"h_coarse {m.h_coarse} m, {m.gauss_points} Gauss points/segment "
-                         "(mesh and DOFs: not built in a dry run)",
-                "law": law_parts(scene),
-                "reference_l_Nc": l_nc,
-                "g_max_over_l_Nc": scene.interface.g_max / l_nc,
-                "damping": f"Rayleigh {scene.damping.ratio:g} at "
-                           + (f"{list(scene.damping.frequencies)} Hz"
-                              if scene.damping.frequencies else
-                              f"modes {list(scene.damping.modes)}"),
-                "ground_motion": scene.ground_motion.record
-                + (" (shipped SYNTHETIC Koyna-like record)"
-                   if scene.ground_motion.record in DEFAULT_RECORDS else ""),
-                "time": f"{n} steps of {t.dt} s to {t.duration} s, Newmark beta "
-                        f"{t.newmark_beta}, gamma {t.newmark_gamma}",
-                "formulation": FORMULATION,
-                "checkpoint_every": scene.output.checkpoint_every,
-                "vtk_every": scene.output.vtk_every}}
-
-
 # ---------------------------------------------------------------------------------------------
 # interface measures
 # ---------------------------------------------------------------------------------------------
-def crack_measures(state, w) -> tuple[float, float, int]:
-    """(sum of w over debonded points, contiguous debonded length from the heel, n debonded).
-    Points are sorted by x (heel first)."""
-    deb = np.asarray(state.debonded, bool)
-    total = float(np.sum(w[deb]))
-    if deb.size and deb[0]:
-        k = int(np.argmin(deb)) if not deb.all() else deb.size
-        heel = float(np.sum(w[:k]))
-    else:
-        heel = 0.0
-    return total, heel, int(deb.sum())
-
-
 # ---------------------------------------------------------------------------------------------
-class _History:
-    def __init__(self):
-        self.cols = {k: [] for k in HIST_KEYS}
-
-    def append(self, **kw):
-        for k in HIST_KEYS:
-            self.cols[k].append(kw[k])
-
-    def arrays(self) -> dict:
-        return {k: np.asarray(v, dtype=float) for k, v in self.cols.items()}
-
-    @classmethod
-    def from_arrays(cls, d):
-        h = cls()
-        for k in HIST_KEYS:
-            h.cols[k] = [float(x) for x in d[f"hist_{k}"]]
-        return h
-
-    def __len__(self):
-        return len(self.cols["t"])
-
-
-def _snapshot_steps(n_steps: int, count: int) -> list[int]:
-    s = sorted({int(round(v)) for v in np.linspace(0, n_steps, count + 1)[1:]})
-    return [k for k in s if k >= 1]
-
-
 def run(scene, outdir=None, resume: bool = False, progress: bool = True,
         max_steps: int | None = None, model=None, plots: bool = True,
         log=print) -> dict:
@@ -220,9 +52,11 @@ def run(scene, outdir=None, resume: bool = False, progress: bool = True,
     max_steps: stop (``RunInterrupted``) after this many dynamic steps of this call, with the
     checkpoint written if one is due (test hook for stop/resume).  model: a prebuilt model
     of this scene (tests).  plots: False skips PNG/VTK output (tests)."""
-    from . import outputs
-    from .modal import damping_from_modes, k0_from_scene, modal_analysis
-    from .solver import NewmarkSolver, SolverError
+    from ..fe.modal import damping_from_modes, k0_from_scene, modal_analysis
+    from ..out import files as outfiles
+    from ..out import plots as outplots
+    from ..out.report import format_summary
+    from ..solve.newmark import NewmarkSolver, SolverError
 
     T0 = time.perf_counter()
     out = pathlib.Path(outdir if outdir is not None else scene.output.dir)
@@ -249,7 +83,7 @@ def run(scene, outdir=None, resume: bool = False, progress: bool = True,
     # ---- model, law, damping --------------------------------------------------------------
     t = time.perf_counter()
     if model is None:
-        from .model import build_from_scene
+        from ..fe.model import build_from_scene
         model = build_from_scene(scene)
     t_build = time.perf_counter() - t
     iface = model.interface
@@ -295,10 +129,10 @@ def run(scene, outdir=None, resume: bool = False, progress: bool = True,
             f"a1 = {damp['a1']:.4g} s; t1 = {chars['t1']:.3e} s, t2 = {chars['t2']:.3e} s "
             f"(Eq. 11); record: {gm.label}{' [SYNTHETIC]' if gm.synthetic else ''}")
 
-    snap_steps = _snapshot_steps(n_steps, scene.output.snapshots)
+    snap_steps = snapshot_steps(n_steps, scene.output.snapshots)
     vtk = None
     if plots and scene.output.vtk_every > 0:
-        vtk = outputs.VTKWriter(model, out / "vtk" / "koyna")
+        vtk = outplots.VTKWriter(model, out / "vtk" / "koyna")
 
     def size_b(state):
         return crack_measures(state, w)[0]
@@ -335,7 +169,7 @@ def run(scene, outdir=None, resume: bool = False, progress: bool = True,
             "max_D": float(st.damage.max()), "D_heel": float(st.damage[0]),
             "elastic": bool(rep.n_active == 0),
         }
-        hist = _History()
+        hist = History()
         snaps = {"step": [0], "t": [0.0], "D": [st.damage.copy()], "kappa": [st.kappa.copy()]}
         k_start = 0
         dyn_wall_before = 0.0
@@ -358,7 +192,7 @@ def run(scene, outdir=None, resume: bool = False, progress: bool = True,
         static_info = meta["static"]
         t_static = static_info["wall"]
         u_static = arrs["u_static"]
-        hist = _History.from_arrays(arrs)
+        hist = History.from_arrays(arrs)
         snaps = {"step": [int(s) for s in arrs["snap_step"]],
                  "t": [float(s) for s in arrs["snap_t"]],
                  "D": list(arrs["snap_D"]), "kappa": list(arrs["snap_kappa"])}
@@ -468,7 +302,7 @@ def run(scene, outdir=None, resume: bool = False, progress: bool = True,
     # ---- outputs ----------------------------------------------------------------------
     H = hist.arrays()
     t_out = time.perf_counter()
-    files = outputs.write_run_outputs(out, model, scene, gm, H, snaps, solver, u_static,
+    files = outfiles.write_run_outputs(out, model, scene, gm, H, snaps, solver, u_static,
                                       plots=plots, heel=heel)
     if vtk is not None:
         files.append(str(vtk.path_hint))
@@ -535,61 +369,3 @@ def run(scene, outdir=None, resume: bool = False, progress: bool = True,
     return summary
 
 
-def results_from_history(H, snaps, x, w) -> dict:
-    """The numbers the paper's statements are compared with."""
-    t = H["t"]
-    if t.size == 0:
-        return {}
-
-    def first(mask):
-        i = np.flatnonzero(mask)
-        return float(t[i[0]]) if i.size else None
-
-    ch = H["crack_length_heel"]
-    final = float(ch[-1])
-    t_final = None
-    if final > 0:
-        i = np.flatnonzero(ch >= final - 1e-12)
-        t_final = float(t[i[0]])
-    return {
-        "max_D_heel": float(H["D_heel"].max()), "max_D": float(H["max_D"].max()),
-        "t_D_heel_reaches_1": first(H["D_heel"] >= 1.0),
-        "t_D_heel_reaches_0.1": first(H["D_heel"] >= 0.1),
-        "t_first_debond": first(H["n_debonded"] > 0),
-        "crack_length_heel_final": final, "crack_length_heel_max": float(ch.max()),
-        "t_crack_heel_reaches_final": t_final,
-        "crack_length_total_final": float(H["crack_length"][-1]),
-        "crack_length_total_max": float(H["crack_length"].max()),
-        "crest_ux_min": float(H["crest_ux"].min()), "crest_ux_max": float(H["crest_ux"].max()),
-        "crest_uy_min": float(H["crest_uy"].min()), "crest_uy_max": float(H["crest_uy"].max()),
-        "D_heel_final": float(H["D_heel"][-1]),
-        "max_size_b": float(H["size_b"].max()),
-        "min_sigma_max": float(H["sigma_max"].min()),
-    }
-
-
-def format_summary(s: dict) -> str:
-    r = s["results"]
-    tm = s["timings"]
-    ch = s["characteristic_times"]
-    lines = [
-        f"[{s['scene']['name']}] done: {s['n_steps']} steps; record {s['label']}",
-        f"  Eq. 11: t1 = {ch['t1']:.3e} s, t2 = {ch['t2']:.3e} s (c_L = {ch['c_L']:.0f} m/s)",
-        "  frequencies [Hz]: " + " ".join(f"{f:.3f}" for f in s["frequencies_hz"]),
-        f"  max D at heel {r.get('max_D_heel', 0):.4g} (D=1 at t = "
-        f"{r.get('t_D_heel_reaches_1')}), crack from heel {r.get('crack_length_heel_final', 0):.4g}"
-        f" m (reached at t = {r.get('t_crack_heel_reaches_final')}), debonded total "
-        f"{r.get('crack_length_total_final', 0):.4g} m",
-        f"  Newton iterations {s['solver_totals']['iterations']}, cuts "
-        f"{s['solver_totals']['cuts']}; wall: static {tm['static']:.2f} s, dynamic "
-        f"{tm['dynamic']:.1f} s, per step median {1e3 * (tm['per_step_median'] or 0):.2f} ms",
-    ]
-    return "\n".join(lines)
-
-
-def scene_for_alpha(scene, alpha: float, outdir: str | None = None):
-    """The scene with interface.alpha replaced (and output.dir if given)."""
-    sc = replace(scene, interface=replace(scene.interface, alpha=float(alpha)))
-    if outdir is not None:
-        sc = replace(sc, output=replace(sc.output, dir=str(outdir)))
-    return sc

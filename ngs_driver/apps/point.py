@@ -13,8 +13,8 @@ import time
 
 import numpy as np
 
-from .io import atomic_write_json, environment_info
-from .koyna import build_law, law_parts
+from ..out.files import atomic_write_json, environment_info
+from ..setup import build_law, law_parts
 
 
 def describe_point(scene) -> dict:
@@ -94,29 +94,3 @@ def run_point(scene, outdir) -> dict:
     return summary
 
 
-def describe_dcb(scene) -> dict:
-    return {"scene": scene.to_dict(), "will_build": {"kind": "dcb", "ngsolve": True}}
-
-
-def run_dcb_scene(scene, outdir) -> dict:
-    """The DCB of the scene, with its beam-theory/LEFM reference; P(delta) CSV + PNG."""
-    from .dcb import DCBSpec, beam_theory_peak, run_dcb
-    d = scene.dcb
-    spec = DCBSpec(L=d.L, h=d.h, a0=d.a0, E=d.E, nu=d.nu, sigma_max=d.sigma_max, G_I=d.G_I,
-                   lambda_max=d.lambda_max)
-    t0 = time.perf_counter()
-    res, _ = run_dcb(spec, h_int=d.h_int, n_gauss=d.gauss_points, n_steps=d.n_steps,
-                     order=d.order)
-    wall = time.perf_counter() - t0
-    out = pathlib.Path(outdir)
-    out.mkdir(parents=True, exist_ok=True)
-    from interfacelaw._atomic import atomic_write_text
-    rows = "\n".join(f"{a:.17g},{b:.17g}" for a, b in zip(res.delta, res.P))
-    atomic_write_text(out / "load_displacement.csv", "delta_m,P_N_per_m\n" + rows + "\n")
-    d_c, P_c = beam_theory_peak(spec)
-    summary = {"scene": scene.to_dict(),
-               "results": {"peak_load": float(np.max(res.P)), "beam_theory_peak": float(P_c),
-                           "complete": bool(res.complete), "message": res.message},
-               "timings": {"solve": wall}, "environment": environment_info()}
-    atomic_write_json(out / "summary.json", summary)
-    return summary

@@ -37,7 +37,7 @@ import scipy.linalg as sla
 import scipy.sparse as sp
 import scipy.sparse.linalg as spl
 
-from .solver_sparse import SparseFactor
+from .sparse import SparseFactor
 
 __all__ = ["NewmarkSolver", "StepReport", "SolverError", "SparseFactor"]
 

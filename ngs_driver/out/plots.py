@@ -1,0 +1,199 @@
+"""Figures of a run (paper Figs. 8b, 10, 11, 12 style) and VTK, fed arrays and the model.
+
+All files are written atomically (``out.files``).  Plot titles carry the record label
+(with "SYNTHETIC" for the shipped motion).  matplotlib is used with the Agg backend; NGSolve
+is needed only for the mesh/stress plots and VTK (they take the model).
+"""
+from __future__ import annotations
+
+import io as _io
+import pathlib
+
+import numpy as np
+
+from .files import atomic_write_bytes
+
+__all__ = ["plot_crest", "plot_damage_profiles", "plot_crack_length", "plot_heel_von_mises",
+           "plot_mesh", "VTKWriter"]
+
+
+def _plt():
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    return plt
+
+
+def _savefig(fig, path):
+    buf = _io.BytesIO()
+    fig.savefig(buf, format="png", dpi=130, bbox_inches="tight")
+    _plt().close(fig)
+    atomic_write_bytes(path, buf.getvalue())
+    return pathlib.Path(path).name
+
+
+# ---------------------------------------------------------------------------------------------
+def plot_crest(path, series, title):
+    """Fig. 10 style: crest u_x and u_y [mm] against t. series: [(label, t, ux, uy), ...]."""
+    plt = _plt()
+    fig, axs = plt.subplots(2, 1, figsize=(8, 6), sharex=True)
+    for lab, t, ux, uy in series:
+        axs[0].plot(t, 1e3 * np.asarray(ux), lw=0.9, label=lab)
+        axs[1].plot(t, 1e3 * np.asarray(uy), lw=0.9, label=lab)
+    axs[0].set_ylabel("crest $u_x$ [mm]")
+    axs[1].set_ylabel("crest $u_y$ [mm]")
+    axs[1].set_xlabel("t [s]")
+    for a in axs:
+        a.grid(alpha=0.3)
+        a.legend(loc="upper right", fontsize=8)
+    axs[0].set_title(title, fontsize=9)
+    return _savefig(fig, path)
+
+
+def plot_damage_profiles(path, panels, title, xmax=None):
+    """Fig. 11 style: D(x) along the interface at several times.
+    panels: [(panel title, x, times, [D arrays]), ...] (one subplot each)."""
+    plt = _plt()
+    n = len(panels)
+    fig, axs = plt.subplots(1, n, figsize=(6 * n, 4.2), squeeze=False)
+    for a, (ptitle, x, times, Ds) in zip(axs[0], panels):
+        cmap = plt.get_cmap("viridis")
+        for i, (t, D) in enumerate(zip(times, Ds)):
+            a.plot(x, D, lw=1.0, color=cmap(i / max(1, len(times) - 1)), label=f"t = {t:.2f} s")
+        a.set_xlabel("x from the heel [m]")
+        a.set_ylabel("damage D")
+        a.set_title(ptitle, fontsize=9)
+        if xmax is not None:
+            a.set_xlim(0, xmax)
+        a.grid(alpha=0.3)
+        a.legend(fontsize=7, ncol=2)
+    fig.suptitle(title, fontsize=9)
+    return _savefig(fig, path)
+
+
+def plot_crack_length(path, series, title):
+    """Crack length against t. series: [(label, t, contiguous-from-heel, total debonded)]."""
+    plt = _plt()
+    fig, ax = plt.subplots(figsize=(8, 3.8))
+    for lab, t, heel, tot in series:
+        l, = ax.plot(t, heel, lw=1.2, label=f"{lab}: contiguous from the heel")
+        ax.plot(t, tot, lw=0.8, ls="--", color=l.get_color(),
+                label=f"{lab}: sum of debonded w")
+    ax.set_xlabel("t [s]")
+    ax.set_ylabel("crack length [m]")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=8)
+    ax.set_title(title, fontsize=9)
+    return _savefig(fig, path)
+
+
+def _triangles(model, box=None):
+    """(P (ntri,3,2), region names, centroids) of the volume elements, optionally in box."""
+    import ngsolve as ngs
+
+    mesh = model.mesh
+    V = np.array([v.point for v in mesh.vertices])
+    tri, reg = [], []
+    for el in mesh.Elements(ngs.VOL):
+        tri.append([v.nr for v in el.vertices])
+        reg.append(el.mat)
+    tri = np.array(tri)
+    P = V[tri][:, :, :2]
+    C = P.mean(axis=1)
+    reg = np.array(reg)
+    if box is not None:
+        x0, x1, y0, y1 = box
+        m = (C[:, 0] >= x0) & (C[:, 0] <= x1) & (C[:, 1] >= y0) & (C[:, 1] <= y1)
+        P, C, reg = P[m], C[m], reg[m]
+    return P, reg, C
+
+
+def _eval(model, cf, X, Y):
+    mesh = model.mesh
+    vals = cf(mesh(X, Y))
+    return np.asarray(vals)
+
+
+def plot_heel_von_mises(path, model, u, title, magnification=400.0,
+                        box=(-3.0, 6.0, -3.0, 3.0)):
+    """Fig. 12 style: deformed mesh near the heel (magnification 400) with the von Mises
+    stress (tripcolor per triangle, both regions), zoom on the first metres."""
+    plt = _plt()
+    gf = model.to_gridfunction(u)
+    P, reg, C = _triangles(model, box=(box[0] - 1, box[1] + 1, box[2] - 1, box[3] + 1))
+    if P.shape[0] == 0:
+        return None
+    # vertex values evaluated inside each triangle (the displacement jumps at the interface)
+    Q = P + 1e-7 * (C[:, None, :] - P)
+    disp = _eval(model, model.displacement_cf(gf), Q[:, :, 0].ravel(), Q[:, :, 1].ravel())
+    disp = disp.reshape(P.shape)
+    vm = _eval(model, model.von_mises(gf), C[:, 0], C[:, 1]).ravel()
+    Pd = P + magnification * disp
+    xy = Pd.reshape(-1, 2)
+    tris = np.arange(xy.shape[0]).reshape(-1, 3)
+    fig, ax = plt.subplots(figsize=(8, 6))
+    tpc = ax.tripcolor(xy[:, 0], xy[:, 1], tris, facecolors=vm / 1e6, cmap="jet",
+                       edgecolors="k", linewidth=0.1)
+    fig.colorbar(tpc, ax=ax, label="von Mises stress [MPa]")
+    ax.set_xlim(box[0], box[1])
+    ax.set_ylim(box[2], box[3])
+    ax.set_aspect("equal")
+    ax.set_xlabel("x [m]")
+    ax.set_ylabel("y [m]")
+    ax.set_title(title + f"\ndeformed mesh x{magnification:g} near the heel", fontsize=9)
+    return _savefig(fig, path)
+
+
+def plot_mesh(path, model, title):
+    """Fig. 8b style: the mesh (dam and rock) and a zoom on the heel."""
+    plt = _plt()
+    P, reg, C = _triangles(model)
+    fig, axs = plt.subplots(1, 2, figsize=(13, 5.5), gridspec_kw={"width_ratios": [2, 1]})
+    cols = {"dam": "tab:blue", "rock": "tab:brown"}
+    for a in axs:
+        for r in np.unique(reg):
+            m = reg == r
+            xy = P[m].reshape(-1, 2)
+            tris = np.arange(xy.shape[0]).reshape(-1, 3)
+            a.triplot(xy[:, 0], xy[:, 1], tris, lw=0.15, color=cols.get(r, "k"))
+        a.set_aspect("equal")
+        a.set_xlabel("x [m]")
+        a.set_ylabel("y [m]")
+    axs[1].set_xlim(-4, 8)
+    axs[1].set_ylim(-4, 5)
+    axs[0].set_title(title, fontsize=9)
+    axs[1].set_title("zoom on the heel", fontsize=9)
+    return _savefig(fig, path)
+
+
+class VTKWriter:
+    """NGSolve VTKOutput time series (displacement, von Mises)."""
+
+    def __init__(self, model, filename):
+        import ngsolve as ngs
+
+        self.model = model
+        self.gf = ngs.GridFunction(model.fes)
+        pathlib.Path(filename).parent.mkdir(parents=True, exist_ok=True)
+        self.vtk = ngs.VTKOutput(model.mesh,
+                                 coefs=[model.displacement_cf(self.gf),
+                                        model.von_mises(self.gf)],
+                                 names=["displacement", "von_mises"],
+                                 filename=str(filename), subdivision=0)
+        self.path_hint = pathlib.Path(filename).parent.name + "/"
+
+    def write(self, u, t):
+        self.model.to_gridfunction(u, self.gf)
+        self.vtk.Do(time=float(t))
+
+
+# ---------------------------------------------------------------------------------------------
+# ---------------------------------------------------------------------------------------------
+
+
+def damage_xmax(snaps, x):
+    """x range of the D(x) plots: where damage lives, at least 5 m."""
+    D = np.max(np.asarray(snaps["D"]), axis=0) if len(snaps["D"]) else np.zeros_like(x)
+    nz = np.flatnonzero(D > 1e-6)
+    xm = float(x[nz[-1]]) * 1.5 if nz.size else 5.0
+    return float(min(max(5.0, xm), x.max()))

@@ -1,0 +1,48 @@
+"""Scene -> ground motion in m/s^2 on the run's time grid (no NGSolve)."""
+from __future__ import annotations
+
+import pathlib
+
+DEFAULT_RECORDS = ("synthetic", "default")
+
+
+
+def load_ground_motion(scene):
+    """The scene's record in m/s^2, scaled, components selected, resampled to dt."""
+    from . import ground_motion as gmod  # noqa: F401 (lazy: scipy)
+
+    g = scene.ground_motion
+    rec = g.record
+    if rec in DEFAULT_RECORDS:
+        gm = gmod.load_default()
+    else:
+        p = pathlib.Path(rec)
+        if not p.exists():
+            raise ValueError(f"ground_motion.record = {rec!r}: no such file; allowed: "
+                             f"{list(DEFAULT_RECORDS)} (the shipped SYNTHETIC record) or a path "
+                             "to a .AT2 / two-column (t a_x) / three-column (t a_x a_y) file")
+        if p.suffix.lower() == ".at2":
+            gm = gmod.read_at2(p, "x")
+        else:
+            ncol = None
+            for ln in p.read_text(encoding="utf-8", errors="replace").splitlines():
+                body = ln.split("#", 1)[0].strip()
+                if body:
+                    ncol = len(body.replace(",", " ").split())
+                    break
+            if ncol == 3:
+                gm = gmod.read_three_column(p, g.units)
+            else:
+                gm = gmod.read_two_column(p, g.units, "x")
+        if g.baseline:
+            gm = gmod.baseline_correct(gm)
+    if g.scale != 1.0:
+        gm = gm.scaled(g.scale)
+    fx = 1.0 if "x" in g.components else 0.0
+    fy = 1.0 if "y" in g.components else 0.0
+    if fx == 0.0 or fy == 0.0:
+        gm = gm.scaled((fx, fy))
+    dt = scene.time.dt
+    if abs(gm.dt - dt) > 1e-12 * dt:
+        gm = gmod.resample(gm, dt)
+    return gm
