@@ -45,8 +45,11 @@ def _norm(x, y):
 
 
 @njit(cache=True, inline="always")
-def _point(gN, gT1, gT2, ko, Do, sepo, s1, s2, coh, contact, friction, damage):
+def _point(gN, gT1, gT2, ko, Do, sepo, s1, s2, coh, contact, friction, damage, rdt):
     """One material point, scalars in, scalars out (no arrays: nothing to reference-count).
+
+    damage = (alpha, beta, g_max, F_th/sigma_max, form code: 0 paper, 1 objective, 2 rate);
+    rdt = dt/t_ref of the step (rate form only; > 0 and finite, checked by the caller).
 
     Returns (F0, F1, F2, T00, T01, T02, T10, T11, T12, T20, T21, T22,
              kappa_new, damage_new, separation_new, slip1_new, slip2_new, dissipated_increment).
@@ -98,7 +101,7 @@ def _point(gN, gT1, gT2, ko, Do, sepo, s1, s2, coh, contact, friction, damage):
         if bonded_old:
             dg = gs - sepo
             if dg > 0.0:
-                alpha, beta, gmax, fth, objective = damage
+                alpha, beta, gmax, fth, form = damage
                 amag2 = a0 * a0 + a1 * a1 + a2 * a2
                 if fth == 0.0 and beta == 0.0:       # r > 0 <=> s > 0 and |a| > 0: no sqrt
                     amag = 1.0
@@ -110,12 +113,16 @@ def _point(gN, gT1, gT2, ko, Do, sepo, s1, s2, coh, contact, friction, damage):
                 if x > 0.0:
                     B = 1.0 if beta == 0.0 else _pow(x, beta)
                     base = dg / gmax
-                    if objective == 0.0:               # the paper's form, Eq. 7
-                        inc = _pow(base, alpha) * B
+                    if form != 1.0:
+                        if form == 0.0:                # the paper's form, Eq. 7
+                            c2 = _pow(base, alpha)     # d D / d B
+                        else:  # rate form (docs §1.5): (dg/g_max)^a (dt/t_ref)^(1-a), written
+                            # as (normalised rate)^a * rdt so that no factor overflows alone
+                            c2 = _pow(base / rdt, alpha) * rdt
+                        inc = c2 * B
                         ok = inc < 1.0 and Do + inc < 1.0
                         Dtry = Do + inc
                         c1 = inc * alpha / (dg * gs)  # d D / d gs, over gs
-                        c2 = _pow(base, alpha)        # d D / d B
                     else:  # step-size objective: D = (p/g_max)^alpha, dp = B dg+ (docs §3 D4)
                         xp = _pow(Do, 1.0 / alpha) + B * base
                         Dtry = _pow(xp, alpha)
@@ -243,13 +250,13 @@ def _point(gN, gT1, gT2, ko, Do, sepo, s1, s2, coh, contact, friction, damage):
 # (not factored into a function taking the arrays): numba reference-counts arrays passed to a
 # function, even an inlined one, which measured 14 atomic calls per point (~2x slower).
 @njit(cache=True)
-def evaluate_serial(gap, coh, contact, friction, damage, kappa, dmg, sep, slip, diss,
+def evaluate_serial(gap, coh, contact, friction, damage, rdt, kappa, dmg, sep, slip, diss,
                     F, T, kappa_n, dmg_n, sep_n, slip_n, diss_n):
     three = gap.shape[1] == 3
     for i in range(gap.shape[0]):
         r = _point(gap[i, 0], gap[i, 1], gap[i, 2] if three else 0.0,
                    kappa[i], dmg[i], sep[i], slip[i, 0], slip[i, 1] if three else 0.0,
-                   coh, contact, friction, damage)
+                   coh, contact, friction, damage, rdt)
         F[i, 0] = r[0]
         F[i, 1] = r[1]
         T[i, 0, 0] = r[3]
@@ -274,13 +281,13 @@ def evaluate_serial(gap, coh, contact, friction, damage, kappa, dmg, sep, slip, 
 
 
 @njit(cache=True, parallel=True)
-def evaluate_parallel(gap, coh, contact, friction, damage, kappa, dmg, sep, slip, diss,
+def evaluate_parallel(gap, coh, contact, friction, damage, rdt, kappa, dmg, sep, slip, diss,
                       F, T, kappa_n, dmg_n, sep_n, slip_n, diss_n):
     three = gap.shape[1] == 3
     for i in prange(gap.shape[0]):
         r = _point(gap[i, 0], gap[i, 1], gap[i, 2] if three else 0.0,
                    kappa[i], dmg[i], sep[i], slip[i, 0], slip[i, 1] if three else 0.0,
-                   coh, contact, friction, damage)
+                   coh, contact, friction, damage, rdt)
         F[i, 0] = r[0]
         F[i, 1] = r[1]
         T[i, 0, 0] = r[3]

@@ -1,6 +1,7 @@
 """Public API of the interface law: validate, allocate, call the numba kernel."""
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, fields
 
 import numpy as np
@@ -76,7 +77,8 @@ class InterfaceLaw:
     The optional parts are chosen once here; the kernel compiled for this combination does not
     contain the parts that are absent. See docs/decisions.md §1 for the equations.
 
-    Note on damage: for ``alpha != 1`` the paper's damage increment depends on the step size.
+    Note on damage: for ``alpha != 1`` the paper's damage increment depends on the step size;
+    the form "rate" does not (at a constant opening rate) but needs ``evaluate(..., dt=...)``.
     """
 
     def __init__(self, cohesive: CohesiveParams, contact: ContactParams | None = None,
@@ -150,7 +152,35 @@ class InterfaceLaw:
                              f"{GAP_LIMIT:g} m; allowed: finite values with |g| <= {GAP_LIMIT:g} m"
                              " (first bad point shown)")
 
-    def evaluate(self, gap: np.ndarray, state: InterfaceState, out=None, check: bool = True):
+    @property
+    def needs_dt(self) -> bool:
+        """True when ``evaluate`` needs the step's time increment ``dt`` (damage form "rate")."""
+        return self.damage is not None and self.damage.needs_dt
+
+    def _rdt(self, dt) -> float:
+        """dt/t_ref for the kernel (1.0 when the law does not use dt); validates dt."""
+        if not self.needs_dt:
+            return 1.0                        # ignored (not even checked) by the other forms
+        if dt is None:
+            raise ValueError("evaluate dt = None is not allowed for DamageParams(form='rate'); "
+                             "allowed: the step's time increment dt > 0 [s] "
+                             "(evaluate(gap, state, dt=...))")
+        try:
+            d = float(dt)
+        except (TypeError, ValueError):
+            raise ValueError(f"evaluate dt = {dt!r} is not a real number; allowed: a finite "
+                             "time increment > 0 [s]") from None
+        if not (d > 0.0 and math.isfinite(d)):
+            raise ValueError(f"evaluate dt = {dt!r} is out of range; allowed: a finite time "
+                             "increment > 0 [s]")
+        r = d / self.damage.t_ref
+        if not (r > 0.0 and math.isfinite(r)):
+            raise ValueError(f"evaluate dt = {dt!r} with t_ref = {self.damage.t_ref!r}: dt/t_ref "
+                             f"= {r!r} is not representable; allowed: dt/t_ref finite and > 0")
+        return r
+
+    def evaluate(self, gap: np.ndarray, state: InterfaceState, out=None, dt=None,
+                 check: bool = True):
         """Traction, consistent tangent and end-of-step state for the total gap ``gap``.
 
         gap   : float64 (n, dim), dim 2 (g_N, g_T) or 3 (g_N, g_T1, g_T2); total gap at the end
@@ -158,8 +188,12 @@ class InterfaceLaw:
         state : the committed start-of-step state (not modified).
         out   : optional (traction (n,dim), tangent (n,dim,dim), InterfaceState) buffers,
                 overwritten; they must not be ``state``'s arrays.
+        dt    : the step's time increment [s] (> 0). Required by the damage form "rate"
+                (``DamageParams(form="rate")``, which integrates Eq. 7 as a rate); ignored by
+                the other forms (not even checked: a solver may pass its dt always).
         Returns ``traction, tangent, new_state`` with ``tangent[i] = d traction[i] / d gap[i]``.
         """
+        rdt = self._rdt(dt)
         if check:
             self._check(gap, state)
         n, dim = gap.shape
@@ -175,11 +209,11 @@ class InterfaceLaw:
                 new.slip[...] = state.slip
         par = self.parallel if self.parallel is not None else n >= PARALLEL_MIN_POINTS
         kern = _kernels.evaluate_parallel if par else _kernels.evaluate_serial
-        kern(gap, self._coh, self._con, self._fri, self._dmg,
+        kern(gap, self._coh, self._con, self._fri, self._dmg, rdt,
              state.kappa, state.damage, state.separation, state.slip, state.dissipated,
              F, T, new.kappa, new.damage, new.separation, new.slip, new.dissipated)
         return F, T, new
 
-    def traction(self, gap, state):
+    def traction(self, gap, state, dt=None):
         """Traction only (convenience)."""
-        return self.evaluate(gap, state)[0]
+        return self.evaluate(gap, state, dt=dt)[0]

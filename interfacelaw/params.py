@@ -10,7 +10,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["CohesiveParams", "ContactParams", "FrictionParams", "DamageParams"]
+__all__ = ["CohesiveParams", "ContactParams", "FrictionParams", "DamageParams", "DAMAGE_FORMS"]
+
+# damage forms; the index is the code the kernels receive (docs/decisions.md §1.5)
+DAMAGE_FORMS = ("paper", "objective", "rate")
 
 
 def _check(cls: str, name: str, value, *, lo=None, hi=None, lo_open=True, hi_open=True,
@@ -225,10 +228,17 @@ class DamageParams:
     alpha : > 0 (paper: 1 or 2).  beta : >= 0 (paper: 0).
     g_max : cumulative separation to failure [m] (> 0); not given by the paper.
     F_th : threshold traction [Pa] (>= 0).
-    form : "paper" (default, Eq. 7 as written) or "objective": the rate form
-        dD = alpha (p/g_max)^(alpha-1) dp/g_max, dp = B dg+, integrated exactly per step as
-        p_new = g_max D_old^(1/alpha) + B dg+, D_new = (p_new/g_max)^alpha — independent of the
-        step size for beta = 0 (docs/decisions.md §3 D4). Identical to "paper" for alpha = 1.
+    form : "paper" (default, Eq. 7 as written), "objective" or "rate".
+        "objective": the rate form dD = alpha (p/g_max)^(alpha-1) dp/g_max, dp = B dg+,
+        integrated exactly per step as p_new = g_max D_old^(1/alpha) + B dg+,
+        D_new = (p_new/g_max)^alpha — independent of the step size for beta = 0
+        (docs/decisions.md §3 D4). Identical to "paper" for alpha = 1.
+        "rate": Eq. 7 read as a rate of the opening rate, dD/dt = (1/t_ref)
+        (g+' t_ref/g_max)^alpha B, per step ΔD = (Δg+/g_max)^alpha (Δt/t_ref)^(1-alpha) B —
+        needs the step's Δt (``InterfaceLaw.evaluate(..., dt=...)``); independent of the step
+        at a constant opening rate, and a fast opening (g+' t_ref > g_max) damages more for
+        larger alpha. Identical to "paper" for alpha = 1 (docs/decisions.md §1.5).
+    t_ref : reference time of the "rate" form [s] (> 0; default 1 s); unused by the others.
     """
 
     g_max: float
@@ -236,12 +246,15 @@ class DamageParams:
     beta: float = 0.0
     F_th: float = 0.0
     form: str = "paper"
+    t_ref: float = 1.0
 
     def __post_init__(self):
         c = "DamageParams"
-        if self.form not in ("paper", "objective"):
+        if self.form not in DAMAGE_FORMS:
             raise ValueError(f"{c}.form = {self.form!r} is not allowed; allowed: 'paper' (Eq. 7, "
-                             "step-size dependent for alpha != 1) or 'objective'")
+                             "step-size dependent for alpha != 1), 'objective' or 'rate' "
+                             "(Eq. 7 as a rate, needs dt)")
+        object.__setattr__(self, "t_ref", _check(c, "t_ref", self.t_ref, lo=0.0))
         object.__setattr__(self, "g_max", _check(c, "g_max", self.g_max, lo=0.0))
         object.__setattr__(self, "alpha", _check(c, "alpha", self.alpha, lo=0.0, hi=20.0,
                                                  hi_open=False))
@@ -249,6 +262,18 @@ class DamageParams:
                                                 lo_open=False, hi_open=False))
         object.__setattr__(self, "F_th", _check(c, "F_th", self.F_th, lo=0.0, lo_open=False))
 
+    @property
+    def needs_dt(self) -> bool:
+        """True when the damage increment depends on the step's time increment (form "rate")."""
+        return self.form == "rate"
+
     def as_array(self, coh: CohesiveParams) -> np.ndarray:
+        """[alpha, beta, g_max, F_th/sigma_max, form code] (0 paper, 1 objective, 2 rate).
+
+        The rate form with alpha = 1 is the paper's form exactly ((Δt/t_ref)^0 = 1), so it is
+        given the paper's code: the same arithmetic, bit for bit."""
+        code = DAMAGE_FORMS.index(self.form)
+        if self.form == "rate" and self.alpha == 1.0:
+            code = 0
         return np.array([self.alpha, self.beta, self.g_max, self.F_th / coh.sigma_max,
-                         1.0 if self.form == "objective" else 0.0])
+                         float(code)])

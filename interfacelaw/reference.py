@@ -35,19 +35,22 @@ def _tnorm(gT: np.ndarray) -> np.ndarray:
     return np.hypot(gT[:, 0], gT[:, 1])
 
 
-def evaluate_reference(law, gap, state: InterfaceState):
+def evaluate_reference(law, gap, state: InterfaceState, dt=None):
     """Traction (n,d), tangent (n,d,d) = d traction/d gap, and the end-of-step InterfaceState.
 
-    Same semantics as ``InterfaceLaw.evaluate(gap, state)``; ``state`` is not modified.
+    Same semantics as ``InterfaceLaw.evaluate(gap, state, dt=dt)``; ``state`` is not modified.
+    ``dt`` [s] is used by the damage form "rate" only (required there).
     """
     gap = np.asarray(gap, dtype=np.float64)
     n, d = gap.shape
     sig, tau, lN, lT, lm = law.cohesive.as_array()
+    if law.damage is not None and law.damage.form == "rate" and dt is None:
+        raise ValueError("evaluate_reference dt = None is not allowed for the rate form")
     with np.errstate(all="ignore"):
-        return _evaluate(law, gap, state, n, d, sig, tau, lN, lT, lm)
+        return _evaluate(law, gap, state, n, d, sig, tau, lN, lT, lm, dt)
 
 
-def _evaluate(law, gap, state, n, d, sig, tau, lN, lT, lm):
+def _evaluate(law, gap, state, n, d, sig, tau, lN, lT, lm, dt):
     I = np.eye(d)
     It = np.eye(d - 1)
     k_old = np.asarray(state.kappa, dtype=np.float64)
@@ -112,7 +115,8 @@ def _evaluate(law, gap, state, n, d, sig, tau, lN, lT, lm):
     # ---- 1.5 cyclic damage ---------------------------------------------------------------
     dDdg = np.zeros((n, d))
     if law.damage is not None:
-        al, be, gmax, fth, objective = law.damage.as_array(law.cohesive)  # fth = F_th/sigma
+        al, be, gmax, fth, _ = law.damage.as_array(law.cohesive)  # fth = F_th/sigma
+        form = law.damage.form
         dg = sep - sep_old
         grow = dg > 0.0
         dgp = np.where(grow, dg, 0.0)
@@ -129,15 +133,19 @@ def _evaluate(law, gap, state, n, d, sig, tau, lN, lT, lm):
             dBdr = np.where(above, be * np.where(above, xp, 1.0) ** (be - 1.0), 0.0)
             dBdr = np.minimum(dBdr, _RATE_CAP)
         Bpos = B > 0.0
-        if objective == 0.0:
+        if form in ("paper", "rate"):
             X = (dgp / gmax) ** al                    # (Delta g/g_max)^alpha
+            # rate form (docs §1.5): times (Delta t/t_ref)^(1-alpha); d/dg as for the paper's
+            # form (the factor does not depend on the gap)
+            ft = (dt / law.damage.t_ref) ** (1.0 - al) if form == "rate" else 1.0
+            X = X * ft
             raw = np.where(grow & Bpos, X * np.where(Bpos, B, 0.0), 0.0)
             dD = np.minimum(1.0, raw)                 # Delta D
             D_new = np.minimum(1.0, D_old + dD)
             # d Delta D/dg = alpha (Dg/g_max)^(alpha-1)/g_max B dsep/dg + X dB/dr dr/dg, where
             # neither min(1, .) clips (zero slope on the clipped branches and for Delta g <= 0)
             free = grow & Bpos & (raw < 1.0) & (D_old + dD < 1.0)
-            dX = al * np.where(free, dgp / gmax, 1.0) ** (al - 1.0) / gmax
+            dX = al * np.where(free, dgp / gmax, 1.0) ** (al - 1.0) / gmax * ft
             dX = np.where(free, np.minimum(dX, _RATE_CAP), 0.0)
             c1 = np.where(free, dX * B, 0.0)
             c2 = np.where(free, X * dBdr, 0.0)

@@ -324,14 +324,18 @@ def branch_names(law, gap, s0, s1):
 @pytest.mark.parametrize("dim", [2, 3])
 @pytest.mark.parametrize("kind", ["linear", "rough"])
 @pytest.mark.parametrize("beta", [0.0, 1.5])
-def test_tangent_matches_centred_finite_differences(dim, kind, beta):
+@pytest.mark.parametrize("form", ["paper", "rate"])
+def test_tangent_matches_centred_finite_differences(dim, kind, beta, form):
     rng = np.random.default_rng(1 + dim + 10 * (kind == "rough") + int(beta))
-    law = full_law(COH2, kind=kind, beta=beta, F_th=0.2 * COH2.sigma_max if beta else 0.0)
+    # rate form: dt/t_ref = 0.3 scales the damage increment by 0.3^(1 - alpha) = 3.3 (alpha 2)
+    dt = 0.3 if form == "rate" else None
+    law = full_law(COH2, kind=kind, beta=beta, F_th=0.2 * COH2.sigma_max if beta else 0.0,
+                   form=form)
     n = 12000
     s0 = random_states(law, n, rng, dim)
     scale = np.r_[COH2.l_Nc, [COH2.l_Tc] * (dim - 1)]
     gap = rng.uniform(-1.3, 1.3, (n, dim)) * scale
-    F, T, s1 = law.evaluate(gap, s0)
+    F, T, s1 = law.evaluate(gap, s0, dt=dt)
     sig = signature(law, gap, s0, s1)
     # h: centred FD truncation error h^2 F''' / 6 vs round-off eps |F| / h; with h = 1e-6 of
     # the gap scale both are ~1e-10..1e-12 relative to the tangent, so 1e-6 relative (of the
@@ -343,8 +347,8 @@ def test_tangent_matches_centred_finite_differences(dim, kind, beta):
         gp, gm = gap.copy(), gap.copy()
         gp[:, j] += h[j]
         gm[:, j] -= h[j]
-        Fp, _, sp = law.evaluate(gp, s0)
-        Fm, _, sm = law.evaluate(gm, s0)
+        Fp, _, sp = law.evaluate(gp, s0, dt=dt)
+        Fm, _, sm = law.evaluate(gm, s0, dt=dt)
         ok &= np.all(signature(law, gp, s0, sp) == sig, axis=1)
         ok &= np.all(signature(law, gm, s0, sm) == sig, axis=1)
         Tfd[:, :, j] = (Fp - Fm) / (2 * h[j])
@@ -487,6 +491,8 @@ def test_from_fracture_energy_validation():
     (lambda: DamageParams(g_max=1.0, beta=-1.0), r"DamageParams\.beta = -1.0.*allowed"),
     (lambda: DamageParams(g_max=1.0, F_th=-1.0), r"DamageParams\.F_th = -1.0.*allowed"),
     (lambda: DamageParams(g_max=1.0, form="exact"), r"DamageParams\.form = 'exact'.*allowed"),
+    (lambda: DamageParams(g_max=1.0, form="rate", t_ref=-1.0),
+     r"DamageParams\.t_ref = -1.0.*allowed"),
     (lambda: InterfaceLaw("x"), r"InterfaceLaw\.cohesive = 'x'.*allowed"),
     (lambda: InterfaceLaw(COH, friction=FrictionParams()), r"friction.*contact = None"),
     (lambda: InterfaceLaw(COH, damage=FrictionParams()), r"InterfaceLaw\.damage = .*allowed"),

@@ -22,7 +22,12 @@ CONTACTS = [None, ContactParams("linear"), ContactParams("rough"),
 DAMAGES = [None, DamageParams(g_max=2e-4),
            DamageParams(g_max=1.5e-4, alpha=2.0, beta=1.5, F_th=3e5),
            DamageParams(g_max=8e-4, alpha=0.5, beta=0.0, F_th=1e6),
-           DamageParams(g_max=3e-4, alpha=2.0, beta=1.0, F_th=2e5, form="objective")]
+           DamageParams(g_max=3e-4, alpha=2.0, beta=1.0, F_th=2e5, form="objective"),
+           DamageParams(g_max=3e-4, alpha=2.0, beta=1.0, F_th=2e5, form="rate", t_ref=0.2),
+           DamageParams(g_max=5e-4, alpha=0.7, form="rate", t_ref=3.0)]
+# the step's time increment passed to every evaluation (used by the "rate" form only);
+# dt/t_ref = 0.25 and 0.017 above, so the factor (dt/t_ref)^(1-alpha) is far from 1
+DT = 0.05
 
 
 def all_laws(coh=COH):
@@ -39,11 +44,11 @@ def scales(coh):
                 damage=1.0, separation=coh.l_Nc, slip=coh.l_Nc, dissipated=coh.G_I)
 
 
-def compare(law, gap, state, rtol=RTOL):
+def compare(law, gap, state, rtol=RTOL, dt=DT):
     """Max of |numba - reference| / max(|reference|, scale) per output; both outputs.
     """
-    F, T, new = law.evaluate(gap, state)
-    Fr, Tr, newr = evaluate_reference(law, gap, state)
+    F, T, new = law.evaluate(gap, state, dt=dt)
+    Fr, Tr, newr = evaluate_reference(law, gap, state, dt=dt)
     sc = scales(law.cohesive)
     pairs = dict(traction=(F, Fr), tangent=(T, Tr))
     pairs.update({k: (getattr(new, k), getattr(newr, k))
@@ -106,7 +111,7 @@ def branches(law, gap, state):
     gN = gap[:, 0]
     gT = np.linalg.norm(gap[:, 1:], axis=1)
     lam = np.hypot(np.maximum(gN, 0) / c.l_Nc, gT / c.l_Tc)
-    _, _, new = evaluate_reference(law, gap, state)
+    _, _, new = evaluate_reference(law, gap, state, dt=DT)
     kap = new.kappa
     deb = (kap >= 1) | (new.damage >= 1)
     out = dict(elastic=kap <= c.lambda_max,
@@ -176,7 +181,7 @@ def near_kink(law, gap, state):
     near = (np.abs(lam - c.lambda_max) < FD_DELTA) | (np.abs(lam - 1.0) < FD_DELTA) \
         | (np.abs(lam - state.kappa) < FD_DELTA) | (np.abs(gN) < FD_DELTA * c.l_Nc) \
         | (lam < FD_DELTA)
-    _, _, new = evaluate_reference(law, gap, state)
+    _, _, new = evaluate_reference(law, gap, state, dt=DT)
     if law.damage is not None:
         al, be, gmax, fth, _ = law.damage.as_array(c)
         sep = np.hypot(gNp, gT)
@@ -188,13 +193,15 @@ def near_kink(law, gap, state):
         r = s * a / c.sigma_max
         B = np.where(r > fth, np.maximum(r - fth, 0.0) ** be, 0.0)
         raw = np.where(dg > 0, (np.maximum(dg, 0) / gmax) ** al * B, 0.0)
+        if law.damage.form == "rate":
+            raw = raw * (DT / law.damage.t_ref) ** (1.0 - al)
         near |= (np.abs(dg) < FD_DELTA * c.l_Nc) | (np.abs(r - fth) < FD_DELTA) \
             | ((dg > 0) & (np.abs(raw - 1) < FD_DELTA)) \
             | ((dg > 0) & (np.abs(state.damage + np.minimum(raw, 1) - 1) < FD_DELTA)) \
             | ((dg > 0) & (np.abs(new.damage - 1) < FD_DELTA))     # objective form's clip
     if law.friction is not None:
         f, CT = law.friction.as_array(c)
-        F, _, _ = evaluate_reference(law, gap, state)
+        F, _, _ = evaluate_reference(law, gap, state, dt=DT)
         tn = CT * np.linalg.norm(gTv - state.slip, axis=1)
         lim = f * np.abs(F[:, 0])
         near |= np.abs(tn - lim) < FD_DELTA * np.maximum(np.maximum(tn, lim), c.sigma_max)
@@ -220,14 +227,14 @@ def test_reference_tangent_finite_differences(dim):
         gap, state = gap[keep], state.take(keep)
         m = gap.shape[0]
         kept_total += m
-        _, T, _ = evaluate_reference(law, gap, state)
+        _, T, _ = evaluate_reference(law, gap, state, dt=DT)
         # (m, 2 dim) perturbed gaps: +h e_j, -h e_j
         E = np.eye(dim) * steps
         gp = (gap[:, None, :] + E[None]).reshape(-1, dim)
         gm = (gap[:, None, :] - E[None]).reshape(-1, dim)
         sd = rep_state(state, dim)
-        Fp = evaluate_reference(law, gp, sd)[0].reshape(m, dim, dim)   # [point, j, i]
-        Fm = evaluate_reference(law, gm, sd)[0].reshape(m, dim, dim)
+        Fp = evaluate_reference(law, gp, sd, dt=DT)[0].reshape(m, dim, dim)   # [point, j, i]
+        Fm = evaluate_reference(law, gm, sd, dt=DT)[0].reshape(m, dim, dim)
         Tfd = np.transpose((Fp - Fm) / (2 * steps[None, :, None]), (0, 2, 1))   # dF_i/dg_j
         err = np.abs(Tfd - T) / np.maximum(np.abs(T), tol_scale)
         i = int(np.unravel_index(np.argmax(err), err.shape)[0]) if m else 0
@@ -262,7 +269,8 @@ def law_gap_state(draw):
                            alpha=draw(st.sampled_from([1.0, 2.0, 0.5, 1.7])),
                            beta=draw(st.sampled_from([0.0, 1.0, 1.5, 0.5])),
                            F_th=sig * draw(st.floats(0.0, 1.5)),
-                           form=draw(st.sampled_from(["paper", "objective"])))
+                           form=draw(st.sampled_from(["paper", "objective", "rate"])),
+                           t_ref=draw(st.floats(1e-3, 1e3)))
     law = InterfaceLaw(coh, con, fri, dmg)
     dim = draw(st.sampled_from([2, 3]))
     n = draw(st.integers(1, 4))
@@ -275,14 +283,15 @@ def law_gap_state(draw):
         separation=np.array([draw(st.floats(0.0, 1e3)) * lc for _ in range(n)]),
         slip=np.array([[draw(gscale) * lc for _ in range(dim - 1)] for _ in range(n)]),
         dissipated=np.array([draw(st.floats(0.0, 1e3)) * coh.G_I for _ in range(n)]))
-    return law, gap, state
+    dt = draw(st.floats(1e-4, 1e2))
+    return law, gap, state, dt
 
 
 @settings(max_examples=int(os.environ.get("REFERENCE_HYPOTHESIS_EXAMPLES", 300)), deadline=None, suppress_health_check=list(HealthCheck))
 @given(law_gap_state())
 def test_numba_matches_reference_hypothesis(lgs):
-    law, gap, state = lgs
-    bad = compare(law, gap, state)
+    law, gap, state, dt = lgs
+    bad = compare(law, gap, state, dt=dt)
     assert not bad, (law, bad)
 
 
