@@ -9,9 +9,13 @@
   rows from that increment on are NaN: no value past a limit point is ever returned.
 * Ready paths: :func:`mode_I`, :func:`mode_II`, :func:`mixed_mode`, :func:`load_unload_reload`,
   :func:`closure_reopening`, :func:`constant_amplitude_cycles`, :func:`shear_under_pressure`.
-* Helpers: :func:`cycles_to_failure`, :func:`tangent_fd_error`, and the proposed step-size
-  objective damage form :func:`objective_damage_increment` / :func:`damage_objective`
-  (docs/decisions.md §3; not the law's default).
+* Helpers: :func:`cycles_to_failure`, :func:`tangent_fd_error`.
+
+Time: the breakpoint ``times`` are physical times [s]. Each increment passes its time step
+``t[i] - t[i-1]`` to ``law.evaluate(..., dt=...)``, which the damage form "rate" uses (the other
+forms ignore it); row 0 (the step from the start state to ``gaps[0]``) uses ``dt0``. The ready
+paths take their duration (``duration``, or ``period`` per cycle) in seconds; the defaults
+(1 s per path / per cycle) keep the pseudo-time of the other forms.
 
 Conventions: component 0 is normal (opening / tension positive), 1 (and 2 in 3D) tangential.
 Every array of a :class:`History` has the increment index first; a single-point run has shapes
@@ -35,7 +39,6 @@ __all__ = [
     "mode_I", "mode_II", "mixed_mode", "load_unload_reload", "closure_reopening",
     "constant_amplitude_cycles", "shear_under_pressure",
     "cycles_to_failure", "tangent_fd_error",
-    "objective_damage_increment", "damage_objective",
     "OK", "NOT_CONVERGED", "SINGULAR", "LIMIT_POINT", "SKIPPED", "NONFINITE", "STATUS_NAMES",
 ]
 
@@ -221,16 +224,28 @@ def _as_batch(values, name):
 
 
 # ------------------------------------------------------------------------------------------
-def gap_path(law: InterfaceLaw, times, gaps, substeps=1, state: InterfaceState | None = None
-             ) -> History:
+def _dts(t, dt0):
+    """Time step of every row: row 0 takes dt0 (default: the first increment's step, or 1 s
+    for a single row), row i > 0 takes t[i] - t[i-1]."""
+    if dt0 is None:
+        dt0 = float(t[1] - t[0]) if t.size > 1 else 1.0
+    elif not (float(dt0) > 0 and math.isfinite(float(dt0))):
+        raise ValueError(f"dt0 = {dt0!r} is not allowed; allowed: a finite time step > 0 [s]")
+    return np.r_[float(dt0), np.diff(t)]
+
+
+def gap_path(law: InterfaceLaw, times, gaps, substeps=1, state: InterfaceState | None = None,
+             dt0: float | None = None) -> History:
     """Drive the law along a piecewise-linear gap history.
 
     law      : an InterfaceLaw.
-    times    : (k,) strictly increasing breakpoint times (any unit: pseudo-time, cycles, s).
+    times    : (k,) strictly increasing breakpoint times [s] (the step t[i] - t[i-1] is passed
+               as ``dt`` to the law: the damage form "rate" depends on it, the others do not).
     gaps     : (k, dim) for one point, or (k, n, dim) for a batch of n points, at the breakpoints.
     substeps : increments per segment, an int or a sequence of k-1 ints.
     state    : committed start state (default: virgin). Row 0 is the law evaluated at
                ``gaps[0]`` from ``state`` (one step from the start state).
+    dt0      : time step [s] of row 0 (default: that of the first increment).
     Returns a History (status NONFINITE where the law returned non-finite numbers; such a point
     is not advanced further).
     """
@@ -251,8 +266,9 @@ def gap_path(law: InterfaceLaw, times, gaps, substeps=1, state: InterfaceState |
     F, T, D, K, P, status = _buffers(m, n, dim)
     message = ""
     G = np.ascontiguousarray(G)
+    dts = _dts(t, dt0)
     for i in range(m):
-        Fi, Ti, new = law.evaluate(G[i], st, check=(i == 0))
+        Fi, Ti, new = law.evaluate(G[i], st, dt=dts[i], check=(i == 0))
         st = new
         F[i] = Fi
         T[i] = Ti
@@ -297,7 +313,7 @@ def _parse_control(control, dim):
 
 def mixed_control(law: InterfaceLaw, times, targets, control, substeps=1,
                   state: InterfaceState | None = None, tol: float = 1e-10, maxiter: int = 50,
-                  max_halvings: int = 60) -> History:
+                  max_halvings: int = 60, dt0: float | None = None) -> History:
     """Mixed traction/gap control, one local Newton per increment.
 
     targets : (k, dim) or (k, n, dim) breakpoint values: the traction [Pa] on the components
@@ -309,6 +325,7 @@ def mixed_control(law: InterfaceLaw, times, targets, control, substeps=1,
     maxiter : Newton iterations per increment; ``max_halvings``: backtracking line search on the
               residual norm (60 halvings reach any scale: a step taken with the fallback
               stiffness at a kink may overshoot a 1e6 times stiffer contact branch).
+    times, dt0 : breakpoint times [s] and the time step of row 0, as in :func:`gap_path`.
     The unknown gap components start from the last converged values. The increment fails with
       * SINGULAR     if the controlled block of the tangent is singular (e.g. debonded and open,
                      or perfect-plastic slip under an imposed shear traction);
@@ -333,6 +350,7 @@ def mixed_control(law: InterfaceLaw, times, targets, control, substeps=1,
     nc = ci.size
     t, Y = _subdivide(times, y3, substeps)
     m = t.size
+    dts = _dts(t, dt0)
     st = law.initial_state(n, dim) if state is None else state
     sig = law.cohesive.sigma_max
     G = np.full((m, n, dim), np.nan)
@@ -366,7 +384,7 @@ def mixed_control(law: InterfaceLaw, times, targets, control, substeps=1,
         if act.size:
             sa = st.take(act)
             ga = np.ascontiguousarray(g[act])
-            Fa, Ta, na = law.evaluate(ga, sa)
+            Fa, Ta, na = law.evaluate(ga, sa, dt=dts[i])
             todo = np.ones(act.size, dtype=bool)
             fail = np.zeros(act.size, dtype=np.int8)
             for it in range(maxiter + 1):
@@ -405,7 +423,7 @@ def mixed_control(law: InterfaceLaw, times, targets, control, substeps=1,
                     gt = base[pend].copy()
                     gt[:, ci] += step[pend, None] * dx[pend]
                     sp = sa.take(idx[pend])
-                    Ft, Tt, nt = law.evaluate(gt, sp, check=False)
+                    Ft, Tt, nt = law.evaluate(gt, sp, dt=dts[i], check=False)
                     rt = np.linalg.norm(Ft[:, ci] - tgt[act[idx[pend]]], axis=1)
                     acc = ~(rt >= r0[pend]) | ~np.isfinite(rt)
                     jj = idx[pend[acc]]
@@ -505,67 +523,86 @@ def _vec(dim, gN, gT):
     return v
 
 
-def _path(law, points, n, dim, state=None):
+def _path(law, points, n, dim, state=None, duration=None):
     """Piecewise-linear path through ``points`` (list of (gN, gT)) with about n increments
-    in total, distributed in proportion to the segment lengths in lambda units."""
+    in total, distributed in proportion to the segment lengths in lambda units. Time: one
+    second per unit of lambda travelled, or the whole path in ``duration`` seconds (the same
+    rate in lambda units on every segment)."""
     c = law.cohesive
     P = np.array([_vec(dim, a, b) for a, b in points])
     seg = np.hypot(np.diff(P[:, 0]) / c.l_Nc, np.linalg.norm(np.diff(P[:, 1:], axis=0), axis=1)
                    / c.l_Tc)
     sub = np.maximum(1, np.round(n * seg / seg.sum())).astype(int)
     times = np.concatenate([[0.0], np.cumsum(seg)])
+    if duration is not None:
+        times = times * (_positive("duration", duration) / times[-1])
     return gap_path(law, times, P, sub, state)
 
 
-def mode_I(law, n: int = 100, lam_end: float = 1.5, dim: int = 2) -> History:
-    """Monotonic opening 0 -> lam_end*l_Nc in n equal increments (g_T = 0).
-    Peak sigma_max at g_N = lambda_max l_Nc; dissipated -> G_I = sigma_max l_Nc/2."""
-    return mixed_mode(law, 0.0, n, lam_end, dim)
+def _positive(name, v):
+    v = float(v)
+    if not (v > 0 and math.isfinite(v)):
+        raise ValueError(f"{name} = {v!r} is not allowed; allowed: a finite time > 0 [s]")
+    return v
 
 
-def mode_II(law, n: int = 100, lam_end: float = 1.5, dim: int = 2) -> History:
-    """Monotonic sliding 0 -> lam_end*l_Tc (g_N = 0). Peak tau_max l_Nc/l_Tc at
-    |g_T| = lambda_max l_Tc; dissipated -> G_II = tau_max l_Nc/2."""
-    return mixed_mode(law, math.pi / 2, n, lam_end, dim)
+def mode_I(law, n: int = 100, lam_end: float = 1.5, dim: int = 2,
+           duration: float = 1.0) -> History:
+    """Monotonic opening 0 -> lam_end*l_Nc in n equal increments (g_T = 0) over ``duration``
+    seconds. Peak sigma_max at g_N = lambda_max l_Nc; dissipated -> G_I = sigma_max l_Nc/2."""
+    return mixed_mode(law, 0.0, n, lam_end, dim, duration)
 
 
-def mixed_mode(law, psi: float, n: int = 100, lam_end: float = 1.5, dim: int = 2) -> History:
+def mode_II(law, n: int = 100, lam_end: float = 1.5, dim: int = 2,
+            duration: float = 1.0) -> History:
+    """Monotonic sliding 0 -> lam_end*l_Tc (g_N = 0) over ``duration`` seconds. Peak
+    tau_max l_Nc/l_Tc at |g_T| = lambda_max l_Tc; dissipated -> G_II = tau_max l_Nc/2."""
+    return mixed_mode(law, math.pi / 2, n, lam_end, dim, duration)
+
+
+def mixed_mode(law, psi: float, n: int = 100, lam_end: float = 1.5, dim: int = 2,
+               duration: float = 1.0) -> History:
     """Proportional path at physical angle psi (tan psi = g_T/g_N) up to lambda = lam_end,
-    in n equal increments; dissipated -> CohesiveParams.G_mixed(psi)."""
+    in n equal increments over ``duration`` seconds (a constant rate);
+    dissipated -> CohesiveParams.G_mixed(psi)."""
     L = _dir_length(law, psi, lam_end)
     end = _vec(dim, L * math.cos(psi), L * math.sin(psi))
-    return gap_path(law, [0.0, 1.0], np.array([np.zeros(dim), end]), n)
+    return gap_path(law, [0.0, _positive("duration", duration)],
+                    np.array([np.zeros(dim), end]), n)
 
 
 def load_unload_reload(law, lam_unload: float = 0.5, lam_end: float = 1.5, psi: float = 0.0,
-                       n: int = 150, dim: int = 2, lam_reunload: float | None = None) -> History:
-    """0 -> lam_unload -> 0 -> lam_end along the angle psi (about n increments in total).
+                       n: int = 150, dim: int = 2, lam_reunload: float | None = None,
+                       duration: float | None = None) -> History:
+    """0 -> lam_unload -> 0 -> lam_end along the angle psi (about n increments in total;
+    time: 1 s per unit of lambda travelled, or the whole path in ``duration`` seconds).
     The unloading and reloading follow the secant to the origin with the stiffness reached at
     lambda_h = lam_unload (no healing); reloading rejoins the envelope at lambda_h."""
     c, s = math.cos(psi), math.sin(psi)
     Lu = _dir_length(law, psi, lam_unload)
     Le = _dir_length(law, psi, lam_end)
     pts = [(0.0, 0.0), (Lu * c, Lu * s), (0.0, 0.0), (Le * c, Le * s)]
-    return _path(law, pts, n, dim)
+    return _path(law, pts, n, dim, duration=duration)
 
 
 def closure_reopening(law, lam_open: float = 0.6, closure: float = 0.1, lam_end: float = 1.5,
-                      n: int = 200, dim: int = 2) -> History:
+                      n: int = 200, dim: int = 2, duration: float | None = None) -> History:
     """Mode I: open to lam_open*l_Nc, close to a penetration closure*l_Nc (g_N < 0: contact
-    if the law has contact), reopen to lam_end*l_Nc."""
+    if the law has contact), reopen to lam_end*l_Nc (time as in :func:`load_unload_reload`)."""
     lN = law.cohesive.l_Nc
     pts = [(0.0, 0.0), (lam_open * lN, 0.0), (-closure * lN, 0.0), (lam_end * lN, 0.0)]
-    return _path(law, pts, n, dim)
+    return _path(law, pts, n, dim, duration=duration)
 
 
 def constant_amplitude_cycles(law, amplitude: float, R: float = 0.0, n_cycles: int = 10,
                               n_per_cycle: int = 20, psi: float = 0.0, dim: int = 2,
-                              state=None) -> History:
+                              state=None, period: float = 1.0) -> History:
     """Gap-controlled constant-amplitude cycles along the angle psi: the separation goes
-    0 -> A -> R*A, then (R*A -> A -> R*A) for the remaining cycles. ``amplitude`` A [m] may be a
-    float or an array of n amplitudes (a batch, one point per amplitude). ``t`` counts cycles
-    (cycle k spans t in (k-1, k]; the peak of cycle k is at t = k - 1/2). n_per_cycle/2
-    increments per half cycle (the first loading too)."""
+    0 -> A -> R*A, then (R*A -> A -> R*A) for the remaining cycles, each leg at a constant
+    rate (a triangle wave). ``amplitude`` A [m] may be a float or an array of n amplitudes (a
+    batch, one point per amplitude). ``t`` [s] = cycles * ``period`` (cycle k spans
+    t/period in (k-1, k]; its peak is at t/period = k - 1/2; with the default period of 1 s
+    ``t`` counts cycles). n_per_cycle/2 increments per half cycle (the first loading too)."""
     A = np.atleast_1d(np.asarray(amplitude, dtype=float))
     if not (-1.0 <= R < 1.0):
         raise ValueError(f"R = {R!r} is not allowed; allowed: [-1, 1) (min/max gap ratio)")
@@ -573,22 +610,26 @@ def constant_amplitude_cycles(law, amplitude: float, R: float = 0.0, n_cycles: i
         raise ValueError("n_cycles >= 1 and n_per_cycle >= 2 are required")
     d = np.zeros(dim)
     d[0], d[1] = math.cos(psi), math.sin(psi)
+    period = _positive("period", period)
     levels = [0.0, 1.0] + [R, 1.0] * (n_cycles - 1) + [R]
-    times = np.concatenate([[0.0], 0.5 * np.arange(1, len(levels))])
+    times = np.concatenate([[0.0], 0.5 * np.arange(1, len(levels))]) * period
     gaps = np.array(levels)[:, None, None] * A[None, :, None] * d[None, None, :]
     if np.ndim(amplitude) == 0:
         gaps = gaps[:, 0, :]
-    return gap_path(law, times, gaps, max(1, n_per_cycle // 2), state)
+    h = gap_path(law, times, gaps, max(1, n_per_cycle // 2), state)
+    h.info["period"] = period
+    return h
 
 
 def shear_under_pressure(law, pressure: float, slip_amplitude: float, n_cycles: int = 1,
                          n_per_cycle: int = 80, tol: float = 1e-10, dim: int = 2,
-                         maxiter: int = 50) -> History:
+                         maxiter: int = 50, period: float = 1.0) -> History:
     """Direct shear test of a joint: constant normal compression ``pressure`` [Pa] (> 0,
     F_N = -pressure imposed) and a tangential gap cycled 0 -> +A -> -A -> +A ... (n_cycles full
     cycles) with A = slip_amplitude [m]. Mixed control "Fg". Once debonded (|g_T| >= l_Tc) and
     sliding, the friction plateau is |F_T| = f * pressure. t in [0, 1/4]: the pressure is
-    ramped at g_T = 0; then the shear: +A at t = 1/2, -A at t = 1, +A at t = 3/2, ..."""
+    ramped at g_T = 0; then the shear: +A at t = 1/2, -A at t = 1, +A at t = 3/2, ...
+    (times in units of ``period`` [s], default 1 s)."""
     if not pressure > 0:
         raise ValueError(f"pressure = {pressure!r} is not allowed; allowed: > 0 (compression)")
     A = float(slip_amplitude)
@@ -598,7 +639,8 @@ def shear_under_pressure(law, pressure: float, slip_amplitude: float, n_cycles: 
     tg = np.zeros((len(levels), dim))
     tg[1:, 0] = -pressure
     tg[:, 1] = np.array(levels) * A
-    tt = np.concatenate([[0.0, 0.25, 0.5], 0.5 + 0.5 * np.arange(1, 2 * n_cycles + 1)])
+    tt = np.concatenate([[0.0, 0.25, 0.5], 0.5 + 0.5 * np.arange(1, 2 * n_cycles + 1)]) \
+        * _positive("period", period)
     sub = [max(1, n_per_cycle // 8), max(1, n_per_cycle // 4)] + \
         [max(1, n_per_cycle // 2)] * (2 * n_cycles)
     ctl = "Fg" if dim == 2 else "Fgg"
@@ -607,26 +649,28 @@ def shear_under_pressure(law, pressure: float, slip_amplitude: float, n_cycles: 
 
 # ------------------------------------------------------------------------------------------
 def cycles_to_failure(h: History):
-    """Cycle number (1-based, t counted in cycles as in constant_amplitude_cycles) in which the
-    point failed (D >= 1 or lambda_h >= 1); inf if it did not. Array for a batch."""
+    """Cycle number (1-based, t / period counted in cycles as in constant_amplitude_cycles) in
+    which the point failed (D >= 1 or lambda_h >= 1); inf if it did not. Array for a batch."""
     fail = (h.damage >= 1.0) | (h.lambda_h >= 1.0)
     fail = fail.reshape(len(h.t), -1)
     out = np.full(fail.shape[1], np.inf)
+    cyc = h.t / h.info.get("period", 1.0)
     for p in range(fail.shape[1]):
         idx = np.flatnonzero(fail[:, p])
         if idx.size:
-            out[p] = math.ceil(h.t[idx[0]] - 1e-12)
+            out[p] = math.ceil(cyc[idx[0]] - 1e-12)
     return out if h.batch else out[0]
 
 
-def tangent_fd_error(law: InterfaceLaw, gap, state: InterfaceState, rel_step: float = 1e-6):
+def tangent_fd_error(law: InterfaceLaw, gap, state: InterfaceState, rel_step: float = 1e-6,
+                     dt: float | None = None):
     """Max relative error of the law's tangent against central finite differences at the
-    points ``gap`` (n, dim) from the committed ``state``. The step of component j is
-    ``rel_step * max(|gap_j|, l_j)`` (l_j = l_Nc or l_Tc); the error is
-    ``max|T - T_fd| / max(|T|)`` per point. Returns (err (n,), T (n,dim,dim), T_fd)."""
+    points ``gap`` (n, dim) from the committed ``state`` (step time ``dt``, for the rate form).
+    The step of component j is ``rel_step * max(|gap_j|, l_j)`` (l_j = l_Nc or l_Tc); the error
+    is ``max|T - T_fd| / max(|T|)`` per point. Returns (err (n,), T (n,dim,dim), T_fd)."""
     gap = np.array(gap, dtype=np.float64, ndmin=2)
     n, dim = gap.shape
-    _, T, _ = law.evaluate(gap, state)
+    _, T, _ = law.evaluate(gap, state, dt=dt)
     c = law.cohesive
     lref = np.array([c.l_Nc] + [c.l_Tc] * (dim - 1))
     Tfd = np.empty_like(T)
@@ -636,82 +680,10 @@ def tangent_fd_error(law: InterfaceLaw, gap, state: InterfaceState, rel_step: fl
         gm = gap.copy()
         gp[:, j] += h
         gm[:, j] -= h
-        Fp = law.evaluate(gp, state)[0]
-        Fm = law.evaluate(gm, state)[0]
+        Fp = law.evaluate(gp, state, dt=dt)[0]
+        Fm = law.evaluate(gm, state, dt=dt)[0]
         Tfd[:, :, j] = (Fp - Fm) / (2 * h[:, None])
     scale = np.abs(T).max(axis=(1, 2))
     scale = np.where(scale > 0, scale, 1.0)
     err = np.abs(T - Tfd).max(axis=(1, 2)) / scale
     return err, T, Tfd
-
-
-# ------------------------------------------------------------------------------------------
-# proposed step-size objective damage form (not the law's default; docs/decisions.md §3)
-def objective_damage_increment(D_old, dg, B, alpha, g_max):
-    """Step-size objective variant of Eq. 7 (proposal, docs/decisions.md §3).
-
-    The paper's ``ΔD = (Δg/g_max)^α B`` sums powers of increments, so for α ≠ 1 the damage
-    after a given history scales with (increments)^(1-α). The rate form
-    ``dD = α (p/g_max)^(α-1) dp/g_max`` with the weighted cumulative separation
-    ``dp = B dg⁺`` integrates exactly to ``D = (p/g_max)^α``: with ``p`` recovered from the
-    damage itself (``p = g_max D^(1/α)``) no new state variable is needed:
-
-        p_new = g_max D_old^(1/α) + B Δg⁺,   D_new = min(1, (p_new/g_max)^α).
-
-    Returns (D_new, dD_new/dΔg) (the second for the consistent tangent; 0 once D = 1).
-    Works elementwise on arrays. For α = 1 it is identical to the paper's form."""
-    D_old = np.asarray(D_old, dtype=float)
-    dgp = np.maximum(np.asarray(dg, dtype=float), 0.0)
-    B = np.asarray(B, dtype=float)
-    p_old = g_max * np.power(np.clip(D_old, 0.0, 1.0), 1.0 / alpha)
-    p_new = p_old + B * dgp
-    x = p_new / g_max
-    D_new = np.minimum(1.0, np.power(x, alpha))
-    with np.errstate(divide="ignore", invalid="ignore"):
-        dD = np.where((D_new < 1.0) & (dgp > 0), alpha * np.power(x, alpha - 1.0) * B / g_max,
-                      0.0)
-    return D_new, dD
-
-
-def damage_objective(law: InterfaceLaw, gaps, alpha=None, beta=None, g_max=None, F_th=None,
-                     form: str = "objective"):
-    """Replay a gap history (m, dim) or (m, n, dim) — e.g. ``History.gap`` of a gap_path run —
-    and return the damage D (m,[n]) of the objective variant (``form="objective"``) or of the
-    paper's form (``form="paper"``, reproduces the law's own D; a cross-check).
-
-    The stress ratio r = s(κ)|a|/σ_max is independent of D (docs §1.5), so it is taken from the
-    cohesive-only law along the same history; the damage parameters default to ``law.damage``.
-    Row 0 is one step from the virgin state, as in gap_path."""
-    dp = law.damage
-    alpha = dp.alpha if alpha is None else alpha
-    beta = dp.beta if beta is None else beta
-    g_max = dp.g_max if g_max is None else g_max
-    F_th = dp.F_th if F_th is None else F_th
-    g3, batch = _as_batch(gaps, "gaps")
-    m, n, dim = g3.shape
-    coh = InterfaceLaw(law.cohesive)
-    st = coh.initial_state(n, dim)
-    sig = law.cohesive.sigma_max
-    D = np.zeros(n)
-    sep = np.zeros(n)
-    out = np.empty((m, n))
-    for i in range(m):
-        Fi, _, new = coh.evaluate(np.ascontiguousarray(g3[i]), st, check=(i == 0))
-        r = np.linalg.norm(Fi, axis=1) / sig
-        x = r - F_th / sig
-        Bv = np.where(x > 0, 1.0 if beta == 0 else np.power(np.maximum(x, 0.0), beta), 0.0)
-        dg = new.separation - sep
-        bonded = (st.kappa < 1.0) & (D < 1.0)
-        dmg = bonded & (dg > 0) & (Bv > 0)
-        if form == "objective":
-            Dn, _ = objective_damage_increment(D, np.where(dmg, dg, 0.0), Bv, alpha, g_max)
-            D = np.where(dmg, Dn, D)
-        elif form == "paper":
-            inc = np.where(dmg, np.power(np.maximum(dg, 0.0) / g_max, alpha) * Bv, 0.0)
-            D = np.where(dmg & ((inc >= 1.0) | (D + inc >= 1.0)), 1.0, D + inc)
-        else:
-            raise ValueError(f"form = {form!r} is not allowed; allowed: 'objective', 'paper'")
-        sep = new.separation
-        st = new
-        out[i] = D
-    return out if batch else out[:, 0]

@@ -138,17 +138,53 @@ def test_cycles_batch_equals_single_runs():
         np.testing.assert_array_equal(hb.point(p).traction, hs.traction)
 
 
-def test_paper_damage_alpha2_scales_with_step_and_objective_variant_does_not():
+def test_paper_damage_alpha2_scales_with_step_and_objective_and_rate_forms_do_not():
     # paper: per loading of amplitude A in k equal increments, sum (A/(k g_max))^2 = (A/g_max)^2/k
     A = 0.1 * COH.l_Nc
-    law = InterfaceLaw(COH, damage=DamageParams(g_max=50 * A, alpha=2.0))
+    laws = {f: InterfaceLaw(COH, damage=DamageParams(g_max=50 * A, alpha=2.0, form=f,
+                                                     t_ref=0.2))
+            for f in ("paper", "objective", "rate")}
+    period = 0.5                      # [s]: each leg A in period/2, rate 2 A / period
     for npc in (2, 8, 32):
-        h = dr.constant_amplitude_cycles(law, A, n_cycles=5, n_per_cycle=npc)
-        assert h.damage[-1] == pytest.approx(5 * (1 / 50) ** 2 / (npc // 2), rel=1e-12)
+        h = {f: dr.constant_amplitude_cycles(law, A, n_cycles=5, n_per_cycle=npc, period=period)
+             for f, law in laws.items()}
+        assert h["paper"].damage[-1] == pytest.approx(5 * (1 / 50) ** 2 / (npc // 2), rel=1e-12)
         # the objective form gives D = (p/g_max)^alpha, p = 5 A: independent of the step
-        assert dr.damage_objective(law, h.gap)[-1] == pytest.approx((5 / 50) ** 2, rel=1e-12)
-        # the replay of the paper's form reproduces the law's own damage exactly
-        np.testing.assert_array_equal(dr.damage_objective(law, h.gap, form="paper"), h.damage)
+        assert h["objective"].damage[-1] == pytest.approx((5 / 50) ** 2, rel=1e-12)
+        # the rate form: 5 loadings at the rate 2A/period during period/2 each:
+        # D = 5 (2 A t_ref/(period g_max))^2 (period/2)/t_ref — independent of the step
+        rate = 2 * A / period
+        assert h["rate"].damage[-1] == pytest.approx(
+            5 * (rate * 0.2 / (50 * A)) ** 2 * (period / 2) / 0.2, rel=1e-12)
+        np.testing.assert_array_equal(h["rate"].t, h["paper"].t)
+        assert h["rate"].t[-1] == pytest.approx(5 * period, rel=1e-15)
+
+
+def test_rate_form_time_stamps_and_cycles_to_failure_in_periods():
+    """Time-stamped paths: the row-0 step (dt0) and the period are what the law sees. A single
+    increment 0 -> A in dt0 gives (A/g_max)^2 t_ref/dt0 for alpha = 2; cycles_to_failure counts
+    cycles whatever the period."""
+    A = 0.1 * COH.l_Nc
+    law = InterfaceLaw(COH, damage=DamageParams(g_max=2 * A, alpha=2.0, form="rate", t_ref=1.0))
+    h = dr.gap_path(law, [0.0], np.array([[A, 0.0]]), dt0=0.5)
+    assert h.damage[0] == pytest.approx(0.25 / 0.5, rel=1e-14)
+    with pytest.raises(ValueError, match="dt0 = 0.0 is not allowed"):
+        dr.gap_path(law, [0.0], np.array([[A, 0.0]]), dt0=0.0)
+    # alpha = 1 (rate form = paper form): failure after g_max/A = 2 loadings -> cycle 2
+    law1 = InterfaceLaw(COH, damage=DamageParams(g_max=2 * A, alpha=1.0, form="rate"))
+    for period in (1.0, 0.01):
+        h = dr.constant_amplitude_cycles(law1, A, n_cycles=4, n_per_cycle=4, period=period)
+        assert dr.cycles_to_failure(h) == 2
+    # mixed control passes each increment's dt too: replaying its converged gaps with gap_path
+    # (same time stamps) gives the same damage (the same evaluations: 1e-14)
+    lawm = InterfaceLaw(COH, damage=DamageParams(g_max=5 * COH.l_Nc, alpha=2.0, form="rate",
+                                                 t_ref=1.0))
+    hm = dr.mixed_control(lawm, [0.0, 0.05], np.array([[0.0, 0.0], [0.5 * COH.sigma_max, 0.0]]),
+                          "Fg", 4)
+    assert hm.converged, hm.message
+    hg = dr.gap_path(lawm, hm.t, hm.gap, 1)
+    assert hm.damage[-1] > 1e-3
+    np.testing.assert_allclose(hg.damage, hm.damage, rtol=1e-14, atol=0)
 
 
 # ---------------------------------------------------------------- mixed control -----------
@@ -273,11 +309,6 @@ def test_tangent_fd_error_small_on_smooth_branches():
     err, T, Tfd = dr.tangent_fd_error(law, gap, st)
     # central differences with h = 1e-6 l: truncation ~ h^2, rounding ~ 1e-16/1e-6
     assert err.max() < 1e-6
-
-
-def test_objective_damage_increment_alpha1_is_paper():
-    D, dD = dr.objective_damage_increment(0.3, 0.01, 1.0, 1.0, 1.0)
-    assert D == pytest.approx(0.31, rel=1e-14) and dD == pytest.approx(1.0)
 
 
 def test_verification_fast_writes_all_sections(tmp_path):

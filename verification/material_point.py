@@ -442,11 +442,13 @@ def sec_workprec(outdir, fast):
     res = {}
     for alpha in (1.0, 2.0):
         law = InterfaceLaw(COH, damage=DamageParams(g_max=2 * lN, alpha=alpha))
+        lawo = InterfaceLaw(COH, damage=DamageParams(g_max=2 * lN, alpha=alpha,
+                                                     form="objective"))
         Dp, Do, tp = [], [], []
         for n in ns:
             h, t = _time(lambda: dr.constant_amplitude_cycles(law, A, 0.0, N, n))
             Dp.append(h.damage[-1])
-            Do.append(dr.damage_objective(law, h.gap)[-1])
+            Do.append(dr.constant_amplitude_cycles(lawo, A, 0.0, N, n).damage[-1])
             tp.append(t)
         exact_obj = (N * A / (2 * lN)) ** alpha
         res[alpha] = dict(n=ns, paper=Dp, objective=Do, time=tp)
@@ -462,13 +464,14 @@ def sec_workprec(outdir, fast):
     # objective form with beta = 1, F_th > 0: D depends on the quadrature of B only
     law = InterfaceLaw(COH, damage=DamageParams(g_max=2 * lN, alpha=2.0, beta=1.0,
                                                 F_th=0.2 * SIG))
+    lawo = InterfaceLaw(COH, damage=DamageParams(g_max=2 * lN, alpha=2.0, beta=1.0,
+                                                 F_th=0.2 * SIG, form="objective"))
     nref = 4096 if not fast else 256
-    href = dr.constant_amplitude_cycles(law, A, 0.0, N, nref)
-    Dref = dr.damage_objective(law, href.gap)[-1]
+    Dref = dr.constant_amplitude_cycles(lawo, A, 0.0, N, nref).damage[-1]
     eo, to, ep = [], [], []
     for n in ns:
         h, t = _time(lambda: dr.constant_amplitude_cycles(law, A, 0.0, N, n))
-        d = dr.damage_objective(law, h.gap)[-1]
+        d = dr.constant_amplitude_cycles(lawo, A, 0.0, N, n).damage[-1]
         eo.append(abs(d - Dref) / Dref)
         ep.append(h.damage[-1])
         to.append(t)
@@ -518,8 +521,9 @@ def sec_workprec(outdir, fast):
     text = ("### (a) step-size dependence of the damage form\n\n"
             f"Fixed history: {N} gap cycles 0 → A → 0, A = 0.1 l_Nc (elastic), g_max = 2 l_Nc, "
             "β = 0. D after the history against increments per cycle n (wall time of the "
-            "gap_path run; the objective column replays the same gaps with "
-            "`drivers.damage_objective`).\n\n"
+            "gap_path run of the paper's form; the objective column is the same path with "
+            "`DamageParams(form=\"objective\")`; the rate form is studied in "
+            "`verification/damage_rate.py`).\n\n"
             + _table(["α", "incr./cycle", "D paper form", "D objective form", "run ms"], rows)
             + f"\n\n**Plainly:** for α = 1 both forms are identical and exact for any n. For "
               f"α = 2 the paper's D is inversely proportional to the number of increments "
