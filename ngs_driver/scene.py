@@ -141,6 +141,27 @@ class Solver:
 
 
 @dataclass(frozen=True)
+class Reservoir:
+    """[reservoir] (issue #12; docs/decisions.md "Reservoir").  ``level`` is the one water level
+    (hydrostatic load and hydrodynamic model); ``loads.reservoir_level`` is its alias."""
+    model: str = _f("none", choices=("none", "westergaard", "acoustic"),
+                    doc="hydrodynamic model: none (hydrostatic only), Westergaard added mass, "
+                        "acoustic water domain")
+    level: float = _f(92.0, lo=0.0, hi=1e4, doc="m above the base; at most the crest")
+    length: float = _f(300.0, lo=0.0, hi=1e4, lo_open=True,
+                       doc="acoustic domain length upstream of the heel [m]; >= level")
+    compressible: bool = _f(True, doc="false: incompressible water (c -> infinity)")
+    sound_speed: float = _f(1440.0, lo=0.0, hi=1e5, lo_open=True, doc="m/s")
+    bottom_reflection: float = _f(1.0, lo=-1.0, hi=1.0,
+                                  doc="wave reflection coefficient alpha of the bottom "
+                                      "(Fenves & Chopra 1983); 1: rigid")
+    far_end: str = _f("radiation", choices=("radiation", "rigid", "free"),
+                      doc="upstream truncation: Sommerfeld radiation, rigid wall, p = 0")
+    h_max: float = _f(6.0, lo=0.0, hi=100.0, lo_open=True,
+                      doc="largest water element [m] (1440 m/s / 20 Hz / 6 m = 12 per wave)")
+
+
+@dataclass(frozen=True)
 class Scene:
     name: str = "koyna"
     description: str = ""
@@ -155,6 +176,7 @@ class Scene:
     interface: Interface = field(default_factory=Interface)
     output: Output = field(default_factory=Output)
     solver: Solver = field(default_factory=Solver)
+    reservoir: Reservoir = field(default_factory=Reservoir)
 
     def to_dict(self) -> dict:
         return _to_plain(dataclasses.asdict(self))
@@ -409,7 +431,79 @@ def scene_path(name_or_path: str | Path) -> Path:
 
 def from_dict(raw: dict, overrides=None):
     """A ``Scene`` (kind "koyna", the default), ``MaterialPointScene`` or ``DCBScene``."""
-    return _build(_root(raw), apply_overrides(raw, overrides), "")
+    root = _root(raw)
+    if root is not Scene:
+        return _build(root, apply_overrides(raw, overrides), "")
+    raw, overrides = _reservoir_alias(raw, overrides)
+    raw = apply_overrides(raw, overrides)
+    if isinstance(raw.get("reservoir"), dict) and "level" in raw["reservoir"]:
+        if not isinstance(raw.get("loads", {}), dict):
+            raise ValueError(f"loads = {raw['loads']!r}: wrong type, expected a table")
+        raw.setdefault("loads", {})["reservoir_level"] = raw["reservoir"]["level"]
+    sc = _build(root, raw, "")
+    _reservoir_checks(sc)
+    return sc
+
+
+def _reservoir_alias(raw: dict, overrides):
+    """``loads.reservoir_level`` is the documented alias of ``reservoir.level``: a file value
+    moves to [reservoir] (both given and different: an error), an override
+    ``--set loads.reservoir_level=v`` becomes ``--set reservoir.level=v``; afterwards the two
+    keys hold the same value."""
+    raw = _deepcopy(raw)
+    loads, res = raw.get("loads"), raw.get("reservoir")
+    if isinstance(loads, dict) and "reservoir_level" in loads:
+        old = loads.pop("reservoir_level")
+        if not isinstance(res, dict):
+            res = raw["reservoir"] = {} if res is None else res
+        if isinstance(res, dict):
+            if "level" in res and res["level"] != old:
+                raise ValueError(f"loads.reservoir_level = {old!r} and reservoir.level = "
+                                 f"{res['level']!r}: two values for one water level; allowed: "
+                                 "reservoir.level only (loads.reservoir_level is its alias)")
+            res["level"] = old
+    ov = []
+    for item in overrides or ():
+        key, eq, val = item.partition("=")
+        ov.append("reservoir.level=" + val if eq and key.strip() == "loads.reservoir_level"
+                  else item)
+    return raw, ov
+
+
+def _reservoir_checks(sc):
+    """[reservoir] against the section: level at most the crest, acoustic domain meshable."""
+    r = sc.reservoir
+    prof = getattr(sc.geometry, "profile", None) or (
+        (0.0, 0.0), (70.0, 0.0), (19.25, 66.5), (14.8, 103.0), (0.0, 103.0))
+    crest = max(float(p[1]) for p in prof)
+    if r.level > crest + 1e-9:
+        raise ValueError(f"reservoir.level = {r.level!r}: above the crest; allowed: "
+                         f"[0, {crest:g}] m (the section's height; alias loads.reservoir_level)")
+    if r.model == "none":
+        return
+    if r.level <= 0.0:
+        raise ValueError(f"reservoir.level = {r.level!r} with reservoir.model = {r.model!r}: "
+                         f"no water; allowed: (0, {crest:g}] m, or reservoir.model = 'none'")
+    if r.model == "acoustic":
+        if r.length < r.level:
+            raise ValueError(f"reservoir.length = {r.length!r}: shorter than the depth "
+                             f"reservoir.level = {r.level!r}; allowed: [{r.level:g}, 10000] m")
+        # the wetted upstream face must be a graph x(y) (the water mesher needs it): going
+        # clockwise from the heel (0, 0) the profile must rise up to the level
+        pts = [tuple(map(float, p)) for p in prof]
+        k = next((i for i, p in enumerate(pts) if abs(p[0]) < 1e-9 and abs(p[1]) < 1e-9), 0)
+        chain = pts[k::-1] + pts[:k:-1]
+        y_prev = 0.0
+        for p in chain[1:]:
+            if p[1] <= y_prev + 1e-9:
+                raise ValueError(f"reservoir.model = 'acoustic': the upstream face of the "
+                                 f"section does not rise monotonically to the level "
+                                 f"{r.level:g} m (vertex {list(p)}); allowed: a face x(y) "
+                                 "single-valued below the level, or reservoir.model = "
+                                 "'westergaard'")
+            if p[1] >= r.level:
+                break
+            y_prev = p[1]
 
 
 def load_scene(name_or_path: str | Path = "koyna", overrides=None):

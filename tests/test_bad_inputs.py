@@ -98,6 +98,19 @@ SCENES = [
     (["interface.contact='soft'"], r"interface.contact = 'soft': not allowed"),
     (["mesh.h_heel"], r"expected KEY.PATH=VALUE"),
     (["mesh.h_heel=[1,"], r"is not a TOML literal"),
+    # [reservoir] (issue #12)
+    (["reservoir.length=2e4"], r"reservoir.length = 20000.0: out of range, allowed \(0.0, 10000.0\]"),
+    (["reservoir.model=acoustic", "reservoir.length=50"],
+     r"reservoir.length = 50.0: shorter than the depth reservoir.level = 92.0"),
+    (["reservoir.sound_speed=0"], r"reservoir.sound_speed = 0.0: out of range"),
+    (["reservoir.sound_speed=-1440"], r"reservoir.sound_speed = -1440.0: out of range"),
+    (["reservoir.bottom_reflection=1.5"],
+     r"reservoir.bottom_reflection = 1.5: out of range, allowed \[-1.0, 1.0\]"),
+    (["reservoir.level=120"], r"reservoir[._]level = 120.0: (above the crest|out of range, allowed \[0.0, 103.0\])"),
+    (["reservoir.model=westergaard", "reservoir.level=0"],
+     r"reservoir.level = 0.0 with reservoir.model = 'westergaard': no water"),
+    (["reservoir.far_end=open"], r"reservoir.far_end = 'open': not allowed"),
+    (["reservoir.model=potential"], r"reservoir.model = 'potential': not allowed"),
 ]
 
 

@@ -76,6 +76,7 @@ class Model:
     lumped_mass: bool
     rock_sides: str
     include_rock_weight: bool
+    reservoir: Any = None          # fe.reservoir.ReservoirModel ([reservoir] model != "none")
     crest_point: tuple[float, float] = geom.CREST_UPSTREAM
 
     @property
@@ -201,6 +202,8 @@ def build_model(foundation: str = "rock", order: int = 1, gauss_points: int = 3,
                          "triangles gives non-positive masses)")
     if gauss_points < 1:
         raise ValueError(f"gauss_points={gauss_points}: must be >= 1")
+    # reservoir: a scene [reservoir] table (fe/reservoir.py; none -> nothing is built)
+    reservoir = mesh_kw.pop("reservoir", None)
     if mesh is None:
         mesh, mesh_info = geom.koyna_mesh(foundation=foundation,
                                           reservoir_level=reservoir_level, **mesh_kw)
@@ -210,6 +213,9 @@ def build_model(foundation: str = "rock", order: int = 1, gauss_points: int = 3,
                                   float("nan"), float("nan"), float("nan"), float("nan"),
                                   float("nan"), float("nan"), float("nan"), mesh.nv, mesh.ne,
                                   nseg)
+    if reservoir is not None and reservoir.model == "acoustic":
+        from .acoustic import add_water        # region "water" glued to the upstream face
+        mesh = add_water(mesh, reservoir)
     bnds = set(mesh.GetBoundaries())
     matching = "interface_rock" not in bnds
     mats = {"dam": dam} if foundation == "rigid" else {"dam": dam, "rock": rock}
@@ -266,6 +272,14 @@ def build_model(foundation: str = "rock", order: int = 1, gauss_points: int = 3,
     M = ((M + M.T) * 0.5).tocsr()
     if lumped_mass:
         M = sp.diags(np.asarray(M.sum(axis=1)).ravel()).tocsr()
+    res_model = None
+    if reservoir is not None and reservoir.model != "none":
+        from .reservoir import build_reservoir
+        comps = [k for k, r in enumerate(mats) if r != "rock"]     # dam fields, fes order
+        res_model = build_reservoir(reservoir, mesh, fes, free, water_density,
+                                    None if len(mats) == 1 else comps)
+        if res_model.added_mass is not None:                # westergaard, incompressible
+            M = (M + res_model.added_mass).tocsr()
 
     # ---- loads ----
     fg = ngs.LinearForm(fes)
@@ -322,6 +336,7 @@ def build_model(foundation: str = "rock", order: int = 1, gauss_points: int = 3,
                  materials=mats, gravity=gravity, reservoir_level=reservoir_level,
                  water_density=water_density, lumped_mass=lumped_mass,
                  rock_sides=rock_sides, include_rock_weight=include_rock_weight,
+                 reservoir=res_model,
                  crest_point=tuple(float(c) for c in crest_point))
 
 
@@ -345,6 +360,7 @@ def model_kwargs(scene) -> dict:
                 dam=mat("dam"), rock=mat("rock"),
                 gravity=L.gravity, reservoir_level=L.reservoir_level,
                 water_density=L.water_density, lumped_mass=m.lumped_mass,
+                reservoir=getattr(scene, "reservoir", None),
                 rock_sides=g.rock_sides, include_rock_weight=L.rock_weight,
                 h_heel=m.h_heel, h_coarse=m.h_coarse, h_interface=m.h_interface,
                 heel_zone=m.heel_zone, growth=m.growth, grading=m.grading,

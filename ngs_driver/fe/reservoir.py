@@ -1,0 +1,113 @@
+"""Hydrodynamic reservoir models on the dam's free DOFs (issue #12, docs/decisions.md "Reservoir").
+
+* ``westergaard_added_mass``: Westergaard's (1933) added mass m(y) = 7/8 rho_w sqrt(H (H - y))
+  per unit area of the wetted upstream face, acting along the face normal (the generalised
+  Westergaard form of Kuo 1982 / USACE EM 1110-2-6051: M_a = int m(y) (N n)(N n)^T ds), integrated
+  consistently on the face and added to M.
+* the acoustic water domain (pressure field) lives in ``fe/acoustic.py``.
+
+``ReservoirModel`` is what ``fe.model.build_model`` keeps on ``Model.reservoir``: the matrices
+it added and what the run needs (effective seismic load vectors, pressure recovery).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+import scipy.sparse as sp
+
+from .ngs_helpers import to_scipy
+
+# quadrature: sqrt(H - y) has an unbounded derivative at the water line (a mesh vertex), so the
+# face integral is done with a high rule; measured: the total mass on a vertical face is exact
+# to < 1e-6 relative (tests/test_reservoir.py)
+BONUS_INTORDER = 12
+
+
+@dataclass
+class ReservoirModel:
+    """The hydrodynamic part of a Model (free-DOF numbering of the model)."""
+
+    kind: str                       # "westergaard" | "acoustic"
+    level: float
+    water_density: float
+    added_mass: sp.csr_matrix | None = None      # added to Model.M (westergaard, incompressible)
+    acoustic: Any = None                          # acoustic.AcousticReservoir
+    info: dict = field(default_factory=dict)
+
+    def seismic_vectors(self, M_rx: np.ndarray, M_ry: np.ndarray):
+        """Effective seismic load vectors (f = f_static - sx a_gx - sy a_gy) from the model's
+        M r (M includes the added mass).  Westergaard: unchanged (the added mass moves with the
+        face).  Incompressible acoustic: the ground-driven pressure of the reservoir bottom and
+        a rigid far end is added (exact condensation, see acoustic.py)."""
+        if self.acoustic is not None and self.acoustic.incompressible:
+            return self.acoustic.seismic_vectors(M_rx, M_ry)
+        return M_rx, M_ry
+
+
+def face_normal_cf():
+    """Unit normal of the upstream face pointing from the water into the dam (+x side): the
+    mesh normal's sign is not reliable on internal or merged boundaries, so it is fixed by its
+    x-component (an upstream face that the water can wet has n_x != 0)."""
+    import ngsolve as ngs
+
+    n = ngs.specialcf.normal(2)
+    return ngs.IfPos(n[0], 1.0, -1.0) * n
+
+
+def dam_normal_trial_test(fes, components):
+    """(u . n, v . n) of the dam displacement on the face: the sum over the dam fields of a
+    product space (components: their indices; each is zero on the others' edges), or the
+    space itself (components None)."""
+    n = face_normal_cf()
+    u, v = fes.TnT()
+    if components is None:
+        return u * n, v * n
+    un = sum(u[k] * n for k in components)
+    vn = sum(v[k] * n for k in components)
+    return un, vn
+
+
+def westergaard_added_mass(fes, free: np.ndarray, level: float, water_density: float,
+                           components=None, boundary: str = "upstream"):
+    """Consistent Westergaard added-mass matrix (free x free) of the wetted ``boundary``:
+
+        M_a = int_{face, y < H} 7/8 rho_w sqrt(H (H - y)) (u . n)(v . n) ds
+
+    fes: the model's space (components: indices of the dam fields in a product space, None
+    for the dam space alone)."""
+    import ngsolve as ngs
+
+    H = float(level)
+    if H <= 0.0:
+        return sp.csr_matrix((free.size, free.size))
+    un, vn = dam_normal_trial_test(fes, components)
+    m = 7.0 / 8.0 * water_density * ngs.sqrt(H * ngs.IfPos(H - ngs.y, H - ngs.y, 0.0))
+    a = ngs.BilinearForm(fes)
+    a += m * un * vn * ngs.ds(boundary, bonus_intorder=BONUS_INTORDER)
+    a.Assemble()
+    Ma = to_scipy(a.mat)[free][:, free]
+    return ((Ma + Ma.T) * 0.5).tocsr()
+
+
+def westergaard_total(level: float, water_density: float) -> float:
+    """Total added mass of a vertical face [kg/m]: int_0^H 7/8 rho sqrt(H (H - y)) dy = 7/12 rho H^2."""
+    return 7.0 / 12.0 * water_density * level ** 2
+
+
+def build_reservoir(res, mesh, fes, free, water_density, components=None, **acoustic_kw):
+    """The ReservoirModel of a scene's [reservoir] table (None for model = "none")."""
+    if res is None or res.model == "none":
+        return None
+    if res.model == "westergaard":
+        Ma = westergaard_added_mass(fes, free, res.level, water_density, components)
+        return ReservoirModel("westergaard", res.level, water_density, added_mass=Ma,
+                              info={"model": "westergaard", "level": res.level})
+    from .acoustic import AcousticReservoir
+
+    ac = AcousticReservoir.build(res, mesh, fes, free, water_density, components,
+                                **acoustic_kw)
+    return ReservoirModel("acoustic", res.level, water_density,
+                          added_mass=ac.added_mass if ac.incompressible else None, acoustic=ac,
+                          info=ac.summary())
