@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import math
 import re
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Sequence
 
@@ -70,6 +70,7 @@ class GroundMotion:
     label  : short name (file name or "synthetic ...")
     synthetic : True for generated (not recorded) motions
     source : free-text provenance
+    meta   : record metadata (event, station, magnitude, PGA, citation ...) for summary.json
     """
 
     t: np.ndarray
@@ -80,6 +81,7 @@ class GroundMotion:
     label: str = ""
     synthetic: bool = False
     source: str = ""
+    meta: dict = field(default_factory=dict)
 
     def __post_init__(self):
         t = np.ascontiguousarray(self.t, dtype=float)

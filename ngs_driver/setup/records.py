@@ -2,8 +2,10 @@
 from __future__ import annotations
 
 import pathlib
+from dataclasses import replace
 
 DEFAULT_RECORDS = ("synthetic", "default")
+FEMA_PREFIX = "fema-p695:"   # FEMA P695 record sets (PEER NGA), ngs_driver/studies/fema.py
 
 
 
@@ -13,13 +15,20 @@ def load_ground_motion(scene):
 
     g = scene.ground_motion
     rec = g.record
-    if rec in DEFAULT_RECORDS:
+    vertical = getattr(g, "vertical", "record")
+    if rec.startswith(FEMA_PREFIX):
+        # PEER-processed records (filtered, baseline corrected by PEER): no second baseline
+        from ..studies.fema import load_record
+        gm = load_record(rec, vertical)
+    elif rec in DEFAULT_RECORDS:
         gm = gmod.load_default()
     else:
         p = pathlib.Path(rec)
         if not p.exists():
             raise ValueError(f"ground_motion.record = {rec!r}: no such file; allowed: "
-                             f"{list(DEFAULT_RECORDS)} (the shipped SYNTHETIC record) or a path "
+                             f"{list(DEFAULT_RECORDS)} (the shipped SYNTHETIC record), "
+                             f"'{FEMA_PREFIX}<set>:<record>:<a|b>' (FEMA P695 / PEER NGA, "
+                             "e.g. 'fema-p695:farfield:7:a') or a path "
                              "to a .AT2 / two-column (t a_x) / three-column (t a_x a_y) file")
         if p.suffix.lower() == ".at2":
             gm = gmod.read_at2(p, "x")
@@ -36,6 +45,17 @@ def load_ground_motion(scene):
                 gm = gmod.read_two_column(p, g.units, "x")
         if g.baseline:
             gm = gmod.baseline_correct(gm)
+    if not rec.startswith(FEMA_PREFIX):
+        if vertical == "none":
+            gm = gm.scaled((1.0, 0.0))
+        elif vertical == "2/3-same":
+            gm = replace(gm, ay=(2.0 / 3.0) * gm.ax,
+                         source=gm.source + " | vertical = 2/3 of the horizontal (same history)")
+        elif vertical == "2/3-other":
+            raise ValueError(f"ground_motion.vertical = '2/3-other' with ground_motion.record = "
+                             f"{rec!r}: the other horizontal component is known only for "
+                             f"'{FEMA_PREFIX}...' records; allowed here: 'record', 'none', "
+                             "'2/3-same'")
     if g.scale != 1.0:
         gm = gm.scaled(g.scale)
     fx = 1.0 if "x" in g.components else 0.0

