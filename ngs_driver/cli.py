@@ -86,7 +86,10 @@ def _dry_run(sc, outdir) -> int:
         from .apps.dcb import describe_dcb as describe
     else:
         from .setup import describe
-    d = describe(sc)
+    try:
+        d = describe(sc)
+    except ValueError as e:
+        return _err(str(e))
     d["will_build"]["output_dir"] = str(outdir)
     print(json.dumps(d, indent=2))
     return 0

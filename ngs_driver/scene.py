@@ -20,6 +20,11 @@ from typing import Any, get_type_hints
 
 SCENE_DIR = Path(__file__).with_name("scenes")
 
+# The default section: the Koyna non-overflow monolith (Chopra & Chakrabarti 1973), as the
+# paper uses it (§5): base 70 m, height 103 m, downstream slope break at 66.5 m.
+KOYNA_PROFILE = ((0.0, 0.0), (70.0, 0.0), (19.25, 66.5), (14.8, 103.0), (0.0, 103.0))
+JOINT_NAME_CHARS = set("abcdefghijklmnopqrstuvwxyz0123456789_")
+
 
 def _f(default, lo=None, hi=None, lo_open=False, hi_open=False, choices=None, doc=""):
     md = {"lo": lo, "hi": hi, "lo_open": lo_open, "hi_open": hi_open, "choices": choices,
@@ -31,10 +36,14 @@ def _f(default, lo=None, hi=None, lo_open=False, hi_open=False, choices=None, do
 
 @dataclass(frozen=True)
 class Geometry:
+    profile: tuple = _f(KOYNA_PROFILE, doc="section polygon [[x, y], ...] in m, "
+                        "counter-clockwise from the heel (0, 0), base on y = 0")
+    profile_file: str = _f("", doc="CSV with two columns x, y (replaces profile); a relative "
+                           "path is taken from the scene file's folder")
     foundation: str = _f("rock", choices=("rock", "rigid"))
-    extent_up: float = _f(1.0, lo=0.1, hi=10.0, doc="rock extent upstream / 70 m")
-    extent_down: float = _f(1.0, lo=0.1, hi=10.0, doc="rock extent downstream / 70 m")
-    extent_depth: float = _f(1.0, lo=0.1, hi=10.0, doc="rock depth / 70 m")
+    extent_up: float = _f(1.0, lo=0.1, hi=10.0, doc="rock extent upstream / base width")
+    extent_down: float = _f(1.0, lo=0.1, hi=10.0, doc="rock extent downstream / base width")
+    extent_depth: float = _f(1.0, lo=0.1, hi=10.0, doc="rock depth / base width")
     rock_sides: str = _f("fixed", choices=("fixed", "roller", "free"))
     matching: bool = _f(True, doc="False: dam and rock meshed separately (node-to-segment)")
 
@@ -44,7 +53,7 @@ class Mesh:
     h_heel: float = _f(0.1, lo=0.0, hi=10.0, lo_open=True)
     h_coarse: float = _f(2.0, lo=0.0, hi=50.0, lo_open=True)
     h_interface: float = _f(1.0, lo=0.0, hi=50.0, lo_open=True)
-    heel_zone: float = _f(5.0, lo=0.0, hi=70.0)
+    heel_zone: float = _f(5.0, lo=0.0, hi=1e4)
     growth: float = _f(1.15, lo=1.0, hi=3.0, lo_open=True)
     grading: float = _f(0.25, lo=0.05, hi=1.0)
     order: int = _f(1, lo=1, hi=4)
@@ -68,7 +77,8 @@ class Materials:
 @dataclass(frozen=True)
 class Loads:
     gravity: float = _f(9.81, lo=0.0, hi=100.0)
-    reservoir_level: float = _f(92.0, lo=0.0, hi=103.0)
+    reservoir_level: float = _f(92.0, lo=0.0, hi=1e4, doc="m above the base; at most the "
+                                "crest")
     water_density: float = _f(1000.0, lo=0.0, hi=5000.0)
     rock_weight: bool = _f(False, doc="apply the rock self weight too")
 
@@ -110,23 +120,38 @@ class Damping:
 
 @dataclass(frozen=True)
 class Interface:
-    sigma_max: float = _f(3.0e6, lo=0.0, hi=1e9, lo_open=True)
-    tau_max: float = _f(3.0e6, lo=0.0, hi=1e9, lo_open=True)
-    G_I: float = _f(250.0, lo=0.0, hi=1e6, lo_open=True)
-    lambda_max: float = _f(0.2, lo=0.0, hi=1.0, lo_open=True, hi_open=True)
-    ratio_lTc_lNc: float = _f(1.0, lo=0.0, hi=100.0, lo_open=True)
-    friction: float = _f(0.3, lo=0.0, hi=5.0)
-    alpha: float = _f(2.0, lo=0.0, hi=20.0)
-    beta: float = _f(0.0, lo=0.0, hi=20.0)
-    g_max: float = _f(6.6667e-4, lo=0.0, hi=10.0, lo_open=True,
+    """The interface law of a joint. Ranges are not repeated here: the law's own parameter
+    classes (interfacelaw) check them, through ``setup.validate`` (one validation truth), and
+    the error names the scene key."""
+    sigma_max: float = _f(3.0e6, doc="Pa")
+    tau_max: float = _f(3.0e6, doc="Pa")
+    G_I: float = _f(250.0, doc="J/m^2")
+    lambda_max: float = _f(0.2)
+    ratio_lTc_lNc: float = _f(1.0)
+    friction: float = _f(0.3, doc="Coulomb coefficient; 0: no friction part")
+    alpha: float = _f(2.0)
+    beta: float = _f(0.0)
+    g_max: float = _f(6.6667e-4,
                       doc="cumulative separation to failure [m]; not in the paper: default "
                           "4 l_Nc of the reference parameters (Roe & Siegmund 2003)")
-    F_th: float = _f(0.0, lo=0.0, hi=1e9)
+    F_th: float = _f(0.0)
     contact: str = _f("linear", choices=("linear", "rough", "none"))
     scaling: bool = _f(True)
     damage: bool = _f(True, doc="false: a law without the damage part (its kernel omits it)")
-    damage_form: str = _f("paper", choices=("paper", "objective"),
-                          doc="Eq. 7 as written, or the step-size-objective variant")
+    damage_form: str = _f("paper", doc="'paper' (Eq. 7 as written), 'objective' (step-size-"
+                          "objective variant), or a form the law offers")
+
+
+@dataclass(frozen=True)
+class Joint:
+    """A lift joint: a horizontal cut through the dam at ``elevation`` with its own law (every
+    [interface] key may be given here; the others inherit [interface])."""
+    name: str = _f("")
+    elevation: float = _f(0.0, lo=0.0, hi=1e4, lo_open=True, doc="m above the base")
+    h_end: float = _f(0.0, lo=0.0, hi=50.0, doc="element size at both ends [m]; 0: mesh.h_heel")
+    h_joint: float = _f(0.0, lo=0.0, hi=50.0,
+                        doc="element size away from the ends [m]; 0: mesh.h_interface")
+    interface: Interface = field(default_factory=Interface)
 
 
 @dataclass(frozen=True)
@@ -179,12 +204,22 @@ class Scene:
     time: Time = field(default_factory=Time)
     damping: Damping = field(default_factory=Damping)
     interface: Interface = field(default_factory=Interface)
+    joints: tuple = _f((), doc="[[joints]] tables: lift joints (the base is always 'base')")
     output: Output = field(default_factory=Output)
     solver: Solver = field(default_factory=Solver)
     reservoir: Reservoir = field(default_factory=Reservoir)
 
     def to_dict(self) -> dict:
         return _to_plain(dataclasses.asdict(self))
+
+    @property
+    def section(self):
+        from .section import Section
+        return Section(self.geometry.profile)
+
+    def joint_tables(self) -> list:
+        """[(name, Interface)] for every joint, the base first."""
+        return [("base", self.interface)] + [(j.name, j.interface) for j in self.joints]
 
 
 @dataclass(frozen=True)
@@ -325,6 +360,10 @@ def _build(cls, raw: dict, path: str):
         p = f"{path}.{name}" if path else name
         if dataclasses.is_dataclass(typ):
             kw[name] = _build(typ, val, p)
+        elif cls is Scene and name == "joints":
+            kw[name] = _build_joints(val, raw.get("interface", {}), p)
+        elif cls is Geometry and name == "profile":
+            kw[name] = _profile_value(val, p)
         elif typ is tuple:
             if not isinstance(val, (list, tuple)):
                 raise ValueError(f"{p} = {val!r}: wrong type, expected {_type_name(tuple)}")
@@ -337,9 +376,95 @@ def _build(cls, raw: dict, path: str):
             kw[name] = tuple(out)
         else:
             kw[name] = _check_scalar(p, val, typ, f.metadata)
+    if cls is Geometry and kw.get("profile_file"):
+        from .section import read_profile_csv
+
+        if "profile" in raw:
+            raise ValueError(f"{path}.profile_file = {kw['profile_file']!r}: give either "
+                             "geometry.profile or geometry.profile_file, not both")
+        try:
+            kw["profile"] = _profile_value(read_profile_csv(kw["profile_file"]),
+                                           f"{path}.profile_file")
+        except ValueError as e:
+            raise ValueError(f"{path}.profile_file = {kw['profile_file']!r}: {e}") from None
     obj = cls(**kw)
     _cross_checks(obj, path)
+    if cls is Scene:
+        _scene_checks(obj)
     return obj
+
+
+def _profile_value(val, path):
+    if not isinstance(val, (list, tuple)) or not all(
+            isinstance(q, (list, tuple)) and len(q) == 2
+            and all(isinstance(c, (int, float)) and not isinstance(c, bool) for c in q)
+            for q in val):
+        raise ValueError(f"{path} = {val!r}: wrong type, expected an array of [x, y] pairs of "
+                         "numbers (m)")
+    return tuple((float(a), float(b)) for a, b in val)
+
+
+def _build_joints(val, raw_interface, path):
+    if not isinstance(val, (list, tuple)):
+        raise ValueError(f"{path} = {val!r}: wrong type, expected an array of tables "
+                         "([[joints]])")
+    keys_j = {f.name for f in dataclasses.fields(Joint)} - {"interface"}
+    keys_i = {f.name for f in dataclasses.fields(Interface)}
+    out = []
+    for i, t in enumerate(val):
+        p = f"{path}[{i}]"
+        if not isinstance(t, dict):
+            raise ValueError(f"{p} = {t!r}: wrong type, expected a table")
+        unknown = sorted(set(t) - keys_j - keys_i - {"interface"})
+        if unknown:
+            raise ValueError(f"{p}.{unknown[0]} = {t[unknown[0]]!r}: unknown key; allowed: "
+                             f"{sorted(keys_j)} and every [interface] key {sorted(keys_i)}")
+        own = {k: v for k, v in t.items() if k in keys_j}
+        if "name" not in own or "elevation" not in own:
+            raise ValueError(f"{p}: a joint needs 'name' and 'elevation' (m above the base)")
+        law = dict(raw_interface) if isinstance(raw_interface, dict) else {}
+        law.update({k: v for k, v in t.items() if k in keys_i})
+        if isinstance(t.get("interface"), dict):
+            law.update(t["interface"])
+        own["interface"] = law
+        j = _build(Joint, own, p)
+        if not j.name or set(j.name) - JOINT_NAME_CHARS or j.name == "base":
+            raise ValueError(f"{p}.name = {j.name!r}: not allowed; allowed: lower-case letters, "
+                             "digits and '_', not 'base' (the dam-foundation joint)")
+        out.append(j)
+    names = [j.name for j in out]
+    if len(set(names)) != len(names):
+        raise ValueError(f"{path}: joint names {names} repeat; allowed: distinct names")
+    return tuple(sorted(out, key=lambda j: j.elevation))
+
+
+def _scene_checks(sc):
+    """Checks across sections (geometry vs loads vs joints); raises naming the key."""
+    from .section import Section
+
+    g = sc.geometry
+    try:
+        sec = Section(g.profile)
+    except ValueError as e:
+        key = "geometry.profile_file" if g.profile_file else "geometry.profile"
+        raise ValueError(f"{key}{' = ' + repr(g.profile_file) if g.profile_file else ''}: "
+                         f"{e}") from None
+    H = sc.loads.reservoir_level
+    if H > sec.height + 1e-9:
+        raise ValueError(f"loads.reservoir_level = {H!r}: above the crest; allowed: "
+                         f"[0, {sec.height:g}] m (the section's height)")
+    for i, j in enumerate(sc.joints):
+        if not (0.0 < j.elevation < sec.height):
+            raise ValueError(f"joints[{i}].elevation = {j.elevation!r} (joint {j.name!r}): "
+                             f"outside the section; allowed: (0, {sec.height:g}) m")
+        xu, xd = sec.width_at(j.elevation)
+        if xd - xu <= 1e-6:
+            raise ValueError(f"joints[{i}].elevation = {j.elevation!r}: the section has no "
+                             "width there")
+    els = [j.elevation for j in sc.joints]
+    if any(b - a < 1e-6 for a, b in zip(els[:-1], els[1:])):
+        raise ValueError(f"joints: two joints at the same elevation {els}; allowed: distinct "
+                         "elevations")
 
 
 def _cross_checks(obj, path):
@@ -521,6 +646,10 @@ def load_scene(name_or_path: str | Path = "koyna", overrides=None):
         except tomllib.TOMLDecodeError as e:
             raise ValueError(f"scene file {p}: TOML syntax error: {e}") from None
     raw.setdefault("name", p.stem)
+    pf = raw.get("geometry", {}).get("profile_file") if isinstance(raw.get("geometry"),
+                                                                   dict) else None
+    if isinstance(pf, str) and pf and not Path(pf).is_absolute() and (p.parent / pf).exists():
+        raw["geometry"]["profile_file"] = str((p.parent / pf).resolve())
     return from_dict(raw, overrides)
 
 

@@ -94,7 +94,27 @@ SCENES = [
     (["geometry.foundation='soft'"], r"foundation = 'soft': not allowed"),
     (["interface.alpha='x'"], r"interface.alpha = 'x': wrong type"),
     (["materials.dam.nu=0.6"], r"materials.dam.nu = 0.6: out of range"),
-    (["interface.lambda_max=1.0"], r"interface.lambda_max = 1.0: out of range"),
+    # law ranges come from interfacelaw (one validation truth), checked by setup.validate
+    (["interface.lambda_max=1.0"], r"interface.lambda_max = 1.0: rejected by the interface "
+                                   r"law: CohesiveParams.lambda_max"),
+    (["interface.alpha=0"], r"interface.alpha = 0.0: rejected by the interface law: "
+                            r"DamageParams.alpha"),
+    (["interface.friction=12"], r"interface.friction = 12.0: rejected by the interface law"),
+    (["interface.G_I=-1"], r"interface.G_I = -1.0: rejected by the interface law"),
+    (["joints=[{name='neck', elevation=66.5, g_max=0}]"],
+     r"joints\[0\].g_max = 0.0: rejected by the interface law"),
+    (["joints=[{name='neck', elevation=110}]"], r"joints\[0\].elevation = 110.0 \(joint 'neck'\): "
+                                                r"outside the section"),
+    (["geometry.profile=[[0,0],[60,0],[0,60],[10,60]]"],
+     r"geometry.profile: .*self-intersecting"),
+    (["geometry.profile=[[0,0],[0,60],[10,60],[60,0]]"], r"geometry.profile: .*clockwise"),
+    (["geometry.profile=[[0,0],[60,1],[0,60]]"], r"geometry.profile: .*base .* not on y = 0"),
+    (["geometry.profile=[[0,0],[60,0]]"], r"geometry.profile: .*2 points; allowed: at least 3"),
+    (["geometry.profile=[[1,0],[60,0],[0,60]]"], r"geometry.profile: .*heel.*allowed: \[0, 0\]"),
+    (["geometry.profile=[[0,0],[60,0],[0,60]]", "loads.reservoir_level=70"],
+     r"loads.reservoir_level = 70.0: above the crest; allowed: \[0, 60\]"),
+    (["geometry.profile_file='/nonexistent/section.csv'"],
+     r"geometry.profile_file = '/nonexistent/section.csv': no such file"),
     (["interface.contact='soft'"], r"interface.contact = 'soft': not allowed"),
     (["mesh.h_heel"], r"expected KEY.PATH=VALUE"),
     (["mesh.h_heel=[1,"], r"is not a TOML literal"),
@@ -130,8 +150,11 @@ def test_record_files(tmp_path):
 
 @pytest.mark.parametrize("sets,pat", SCENES, ids=[s[0][0] for s in SCENES])
 def test_scene_values(sets, pat):
+    """Everything --dry-run rejects: the schema (load_scene) and setup.validate (law ranges,
+    the record)."""
+    from ngs_driver.setup import validate
     with pytest.raises(ValueError, match=pat):
-        load_scene("koyna", sets)
+        validate(load_scene("koyna", sets))
 
 
 def test_unknown_scene_lists_the_shipped_ones():

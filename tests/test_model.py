@@ -12,6 +12,7 @@ import pytest
 ngs = pytest.importorskip("ngsolve")
 
 from ngs_driver.fe import geometry as geom  # noqa: E402
+from ngs_driver.scene import KOYNA_PROFILE  # noqa: E402
 from ngs_driver.fe.model import build_model, CLASSIC_KOYNA, PAPER_DAM  # noqa: E402
 from ngs_driver.fe.modal import (modal_analysis, paper_k0, rayleigh_coefficients,  # noqa: E402
                               rayleigh_ratio)
@@ -25,7 +26,7 @@ pytestmark = pytest.mark.fe
 EXACT = 1e-12
 COARSE = dict(h_heel=1.0, heel_zone=0.0, h_interface=5.0, h_coarse=10.0, growth=1.5)
 K0N, K0T = paper_k0()
-A_DAM = geom.polygon_area(geom.KOYNA_DAM)
+A_DAM = geom.polygon_area(KOYNA_PROFILE)
 
 
 @pytest.fixture(scope="module")
@@ -189,7 +190,7 @@ def test_to_gridfunction_and_von_mises(rock_model):
     md = rock_model
     u = md.static_solution(K0N, K0T)
     gf = md.to_gridfunction(u)
-    mp = md.mesh(*geom.CREST_UPSTREAM, VOL_or_BND=ngs.VOL)
+    mp = md.mesh(*(0.0, 103.0), VOL_or_BND=ngs.VOL)
     assert gf.components[0](mp)[0] == pytest.approx(u[md.crest_dofs[0]], rel=1e-10)
     # von Mises of a uniaxial plane-strain state sigma_xx = s: sigma_zz = nu s,
     # vm = s sqrt(1 - nu + nu^2).  Build u with eps_yy = 0, eps_xx = e0

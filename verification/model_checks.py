@@ -26,6 +26,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 from ngs_driver.fe import geometry as geom  # noqa: E402
+from ngs_driver.scene import KOYNA_PROFILE  # noqa: E402
 from ngs_driver.fe.model import build_model, CLASSIC_KOYNA, PAPER_DAM  # noqa: E402
 from ngs_driver.fe.modal import modal_analysis, paper_k0  # noqa: E402
 
@@ -39,7 +40,7 @@ def static_check(foundation="rock", **kw) -> dict:
     I = md.interface
     t = np.column_stack([k0n * I.gap(u)[:, 0], k0t * I.gap(u)[:, 1]])
     R = (I.w[:, None] * t).sum(axis=0)          # resultant (N, T) of the interface springs
-    A = geom.polygon_area(geom.KOYNA_DAM)
+    A = geom.polygon_area(KOYNA_PROFILE)
     W = md.materials["dam"].rho * md.gravity * A
     H = md.reservoir_level
     thrust = md.water_density * md.gravity * H ** 2 / 2

@@ -35,6 +35,12 @@ class Interface:
     normal: np.ndarray = field(default_factory=lambda: np.array([0.0, 1.0]))
     tangent: np.ndarray = field(default_factory=lambda: np.array([1.0, 0.0]))
     matching: bool = True
+    name: str = "base"
+    parts: dict | None = None      # joint name -> slice of points (stacked operators)
+
+    def __post_init__(self):
+        if self.parts is None:
+            self.parts = {self.name: slice(0, self.x.size)}
 
     @property
     def npts(self) -> int:
@@ -82,7 +88,9 @@ def block_diag(D: np.ndarray) -> sp.csr_matrix:
 
 def build_interface(mesh, fes, Vd, Vr, free, n_gauss: int, foundation: str,
                     matching: bool, order: int,
-                    coupling: str = "segment-to-segment") -> Interface:
+                    coupling: str = "segment-to-segment", *, upper: int = 0,
+                    lower: int | None = 1, boundary: str = "interface",
+                    rock_offset: int | None = None, name: str = "base") -> Interface:
     """Interface operator B (see ``Interface``).
 
     Dam side (and rock side for matching meshes): NGSolve evaluates the basis functions
@@ -92,7 +100,11 @@ def build_interface(mesh, fes, Vd, Vr, free, n_gauss: int, foundation: str,
     node-to-segment projection of each dam-side Gauss point onto the "interface_rock"
     segments, linear shape functions (order 1 only) — ``coupling="node-to-segment"``, kept for
     comparison; the default for non-matching meshes is ``segment_to_segment`` (passes the
-    patch test)."""
+    patch test).
+
+    upper / lower: indices of the fields above and below the joint in the product space
+    ``fes`` (lower None: the fixed ground); the gap is u_upper - u_lower at the points of the
+    internal boundary ``boundary``. rock_offset: first DOF of the lower field (non-matching)."""
     import ngsolve as ngs
     from ngsolve.comp import IntegrationRuleSpaceSurface
 
@@ -101,10 +113,11 @@ def build_interface(mesh, fes, Vd, Vr, free, n_gauss: int, foundation: str,
     if foundation != "rigid" and not matching and coupling == "segment-to-segment":
         if order != 1:
             raise NotImplementedError("non-matching interface implemented for order=1 only")
-        return segment_to_segment(mesh, fes, Vd, Vr, free, n_gauss, normal, tangent)
+        return segment_to_segment(mesh, fes, Vd, Vr, free, n_gauss, normal, tangent,
+                                  Vd.ndof if rock_offset is None else rock_offset)
     nfull = fes.ndof
     irs = IntegrationRuleSpaceSurface(mesh, order=n_gauss - 1,
-                                      definedon=mesh.Boundaries("interface"))
+                                      definedon=mesh.Boundaries(boundary))
     rules = irs.GetIntegrationRules()
     # IntegrationRuleSpaceSurface(order=n-1) carries the n-point Gauss rule: check
     segrule = rules[ngs.ET.SEGM]
@@ -113,7 +126,7 @@ def build_interface(mesh, fes, Vd, Vr, free, n_gauss: int, foundation: str,
                            f"per segment, expected {n_gauss}")
     q = irs.TestFunction()
     p = irs.TrialFunction()
-    dsI = ngs.ds("interface", intrules=rules)
+    dsI = ngs.ds(boundary, intrules=rules)
     mi = ngs.BilinearForm(irs)
     mi += p * q * dsI
     mi.Assemble()
@@ -127,11 +140,10 @@ def build_interface(mesh, fes, Vd, Vr, free, n_gauss: int, foundation: str,
     xs = vec(lfx) / w
     ys = vec(lfy) / w
 
-    if foundation == "rigid":
-        u = fes.TrialFunction()
-        ud, ur = u, None
-    else:
-        ud, ur = fes.TrialFunction()
+    tr = fes.TrialFunction()
+    tr = tuple(tr) if isinstance(tr, (tuple, list)) else (tr,)
+    ud = tr[upper]
+    ur = None if (lower is None or foundation == "rigid") else tr[lower]
     rows = []
     for e in (normal, tangent):
         b = ngs.BilinearForm(trialspace=fes, testspace=irs)
@@ -151,7 +163,7 @@ def build_interface(mesh, fes, Vd, Vr, free, n_gauss: int, foundation: str,
     Bfull = Bfull[perm]
 
     # segments (dam side) and point -> segment map
-    els = list(mesh.Boundaries("interface").Elements())
+    els = list(mesh.Boundaries(boundary).Elements())
     seg_of_dof = np.empty(npts, dtype=np.int64)
     segs = np.empty((len(els), 2, 2))
     for k, el in enumerate(els):
@@ -163,7 +175,8 @@ def build_interface(mesh, fes, Vd, Vr, free, n_gauss: int, foundation: str,
     if ur is not None and not matching:
         if order != 1:
             raise NotImplementedError("non-matching interface implemented for order=1 only")
-        Bfull = Bfull + _rock_nts(mesh, fes, Vd, Vr, xs, ys, normal, tangent)
+        Bfull = Bfull + _rock_nts(mesh, fes, Vd, Vr, xs, ys, normal, tangent,
+                                  Vd.ndof if rock_offset is None else rock_offset)
 
     # sort points by x (heel first), renumber segments by their left end
     seg_order = np.argsort(segs[:, 0, 0], kind="stable")
@@ -177,7 +190,7 @@ def build_interface(mesh, fes, Vd, Vr, free, n_gauss: int, foundation: str,
     B.eliminate_zeros()
     return Interface(B=B, x=xs[pord], y=ys[pord], w=w[pord], segment=seg_new[seg_of_dof][pord],
                      segments=segs[seg_order], n_gauss=n_gauss, normal=normal,
-                     tangent=tangent, matching=matching or ur is None)
+                     tangent=tangent, matching=matching or ur is None, name=name)
 
 
 
@@ -217,7 +230,8 @@ def _p1_rows(segs, off, X, sign, normal, tangent, rows, cols, vals, i):
 
 
 
-def segment_to_segment(mesh, fes, Vd, Vr, free, n_gauss, normal, tangent) -> "Interface":
+def segment_to_segment(mesh, fes, Vd, Vr, free, n_gauss, normal, tangent,
+                       rock_offset) -> "Interface":
     """Non-matching straight interface, integrated segment-to-segment: the dam-side and
     rock-side segments are cut at every vertex of either side, and each piece carries n Gauss
     points, so both sides' linear shape functions are smooth on every piece and B^T W t is
@@ -252,7 +266,7 @@ def segment_to_segment(mesh, fes, Vd, Vr, free, n_gauss, normal, tangent) -> "In
     for i in range(xs.size):
         X = np.array([xs[i], ys[i]])
         seg[i] = _p1_rows(dseg, 0, X, 1.0, normal, tangent, rows, cols, vals, i)
-        _p1_rows(rseg, Vd.ndof, X, -1.0, normal, tangent, rows, cols, vals, i)
+        _p1_rows(rseg, rock_offset, X, -1.0, normal, tangent, rows, cols, vals, i)
     B = sp.csr_matrix((vals, (rows, cols)), shape=(2 * xs.size, fes.ndof))[:, free].tocsr()
     B.eliminate_zeros()
     segs = np.array([sorted(map(tuple, P)) for P, _ in dseg])
@@ -260,15 +274,34 @@ def segment_to_segment(mesh, fes, Vd, Vr, free, n_gauss, normal, tangent) -> "In
     renum = np.empty_like(order)
     renum[order] = np.arange(order.size)
     return Interface(B=B, x=xs, y=ys, w=w, segment=renum[seg], segments=segs[order],
-                     n_gauss=n_gauss, normal=normal, tangent=tangent, matching=False)
+                     n_gauss=n_gauss, normal=normal, tangent=tangent, matching=False, name="base")
 
 
 
-def _rock_nts(mesh, fes, Vd, Vr, xs, ys, normal, tangent) -> sp.csr_matrix:
+def _rock_nts(mesh, fes, Vd, Vr, xs, ys, normal, tangent, rock_offset) -> sp.csr_matrix:
     """-(rock displacement) at the points, node-to-segment on "interface_rock" (order 1)."""
     rseg = _p1_segments(mesh, Vr, "interface_rock")
     rows, cols, vals = [], [], []
     for i in range(xs.size):
-        _p1_rows(rseg, Vd.ndof, np.array([xs[i], ys[i]]), -1.0, normal, tangent, rows, cols,
+        _p1_rows(rseg, rock_offset, np.array([xs[i], ys[i]]), -1.0, normal, tangent, rows, cols,
                  vals, i)
     return sp.csr_matrix((vals, (rows, cols)), shape=(2 * xs.size, fes.ndof))
+
+
+def stack_interfaces(ifaces) -> Interface:
+    """One operator over the concatenated points of several joints (the base first); the
+    solver sees one gap vector, ``parts`` tells each joint's slice."""
+    parts, segs, seg_ids, n0, s0 = {}, [], [], 0, 0
+    for it in ifaces:
+        parts[it.name] = slice(n0, n0 + it.npts)
+        seg_ids.append(it.segment + s0)
+        segs.append(it.segments)
+        n0 += it.npts
+        s0 += it.segments.shape[0]
+    return Interface(B=sp.vstack([it.B for it in ifaces]).tocsr(),
+                     x=np.concatenate([it.x for it in ifaces]),
+                     y=np.concatenate([it.y for it in ifaces]),
+                     w=np.concatenate([it.w for it in ifaces]),
+                     segment=np.concatenate(seg_ids), segments=np.concatenate(segs),
+                     n_gauss=ifaces[0].n_gauss, matching=all(it.matching for it in ifaces),
+                     name="+".join(it.name for it in ifaces), parts=parts)

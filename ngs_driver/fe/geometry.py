@@ -1,12 +1,13 @@
-"""Geometry and meshes of the Koyna dam on its rock foundation (issue #5).
+"""Meshes of a gravity-dam section (``section.Section``) with its lift joints, on a rock block.
 
 Coordinates: x downstream from the heel, y up, metres.  The dam-rock contact line
-(0,0)-(70,0) is an internal boundary named ``"interface"``; the regions are ``"dam"``
-and ``"rock"``.
+(0,0)-(W,0) is an internal boundary named ``"interface"`` (the joint called "base"); a lift
+joint is an internal boundary named after the joint. Regions: the dam blocks "dam" (on the
+base) and "dam_<joint>" (above each lift joint), and "rock".
 
 Boundary names
-    dam:  "upstream" (x=0), "downstream" (two segments, toe -> slope break -> crest),
-          "crest" (y=103), "interface" (base).
+    dam:  "upstream" (heel -> crest corner), "downstream" (toe -> crest),
+          "crest" (the horizontal top edge, if any), "interface" (base), one per lift joint.
     rock: "rock_top_up" (upstream of the heel), "rock_top_down" (downstream of the toe),
           "rock_left", "rock_right", "rock_bottom".
     non-matching meshes only: "interface_rock" (the rock side of the interface; the dam
@@ -26,28 +27,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-# Standard Koyna non-overflow section (Chopra & Chakrabarti 1973), counter-clockwise.
-KOYNA_DAM = ((0.0, 0.0), (70.0, 0.0), (19.25, 66.5), (14.8, 103.0), (0.0, 103.0))
-BASE_WIDTH = 70.0
-DAM_HEIGHT = 103.0
-HEEL = (0.0, 0.0)
-CREST_UPSTREAM = (0.0, 103.0)
-
-
-def polygon_area(pts) -> float:
-    """Shoelace area of a simple polygon (positive for counter-clockwise)."""
-    p = np.asarray(pts, dtype=float)
-    x, y = p[:, 0], p[:, 1]
-    return 0.5 * float(np.dot(x, np.roll(y, -1)) - np.dot(np.roll(x, -1), y))
-
-
-def polygon_centroid(pts) -> tuple[float, float]:
-    p = np.asarray(pts, dtype=float)
-    x, y = p[:, 0], p[:, 1]
-    xn, yn = np.roll(x, -1), np.roll(y, -1)
-    c = x * yn - xn * y
-    a = 0.5 * c.sum()
-    return float(((x + xn) * c).sum() / (6 * a)), float(((y + yn) * c).sum() / (6 * a))
+from ..section import polygon_area, polygon_centroid  # noqa: F401 (re-exported)
 
 
 @dataclass(frozen=True)
@@ -114,17 +94,33 @@ def _add_poly(geo, pts_h, leftdomain, rightdomain, bcs, maxhs):
                    rightdomain=rightdomain, bc=bcs[i], maxh=maxhs[i])
 
 
-def koyna_mesh(foundation: str = "rock", h_heel: float = 0.1, h_coarse: float = 2.0,
-               h_interface: float | None = 1.0, growth: float = 1.15,
-               extent_up: float = 1.0, extent_down: float = 1.0, extent_depth: float = 1.0,
-               grading: float = 0.25, matching: bool = True,
-               h_heel_rock: float | None = None, h_interface_rock: float | None = None,
-               heel_zone: float = 5.0, reservoir_level: float | None = None):
-    """Netgen mesh of the Koyna dam (region "dam") and, for foundation="rock", its rock
-    block (region "rock") of extent ``extent_* x 70 m`` upstream, downstream and below.
+@dataclass(frozen=True)
+class JointSpec:
+    """A lift joint to mesh: horizontal cut at ``elevation`` graded from both ends."""
+    name: str
+    elevation: float
+    h_end: float
+    h_joint: float
 
-    ``h_interface`` (default ``h_coarse/2``) is the element size along the interface away
-    from the heel.  With ``matching=False`` dam and rock are meshed separately (rock with
+
+def dam_block_names(joints) -> list[str]:
+    """Region names of the dam blocks, bottom up: "dam" on the base, "dam_<joint>" above."""
+    return ["dam"] + [f"dam_{j.name}" for j in sorted(joints, key=lambda j: j.elevation)]
+
+
+def dam_mesh(section, joints=(), foundation: str = "rock", h_heel: float = 0.1,
+             h_coarse: float = 2.0, h_interface: float | None = 1.0, growth: float = 1.15,
+             extent_up: float = 1.0, extent_down: float = 1.0, extent_depth: float = 1.0,
+             grading: float = 0.25, matching: bool = True,
+             h_heel_rock: float | None = None, h_interface_rock: float | None = None,
+             heel_zone: float = 5.0, reservoir_level: float | None = None):
+    """Netgen mesh of a dam section (``section.Section``) cut by lift ``joints``
+    (``JointSpec``) into blocks (regions ``dam_block_names``) and, for foundation="rock", its
+    rock block (region "rock") of extent ``extent_* x base width`` upstream, downstream and
+    below.
+
+    ``h_interface`` (default ``h_coarse/2``) is the element size along the base away from the
+    heel.  With ``matching=False`` dam and rock are meshed separately (rock with
     ``h_heel_rock``/``h_interface_rock``, default 1.7x the dam values so that no interface
     node coincides except the ends) and merged into one mesh whose rock-side interface is
     named "interface_rock"; the two regions then share no vertex.
@@ -134,18 +130,21 @@ def koyna_mesh(foundation: str = "rock", h_heel: float = 0.1, h_coarse: float = 
 
     if foundation not in ("rock", "rigid"):
         raise ValueError(f"foundation={foundation!r}: allowed 'rock' or 'rigid'")
+    joints = tuple(sorted(joints, key=lambda j: j.elevation))
     h_int = h_coarse / 2.0 if h_interface is None else h_interface
     if foundation == "rigid" or matching:
-        ngmesh = _koyna_single(foundation, h_heel, h_coarse, h_int, growth, extent_up,
-                               extent_down, extent_depth, grading, heel_zone, reservoir_level)
+        ngmesh = _dam_geometry(section, joints, foundation, h_heel, h_coarse, h_int, growth,
+                               extent_up, extent_down, extent_depth, grading, heel_zone,
+                               reservoir_level)
         h_int_r = None
     else:
         hh_r = 1.7 * h_heel if h_heel_rock is None else h_heel_rock
         h_int_r = 1.7 * h_int if h_interface_rock is None else h_interface_rock
-        dam = _koyna_single("rigid", h_heel, h_coarse, h_int, growth, extent_up,
-                            extent_down, extent_depth, grading, heel_zone, reservoir_level)
-        rock = _rock_only(hh_r, h_coarse, h_int_r, growth, extent_up, extent_down,
-                          extent_depth, grading, heel_zone)
+        dam = _dam_geometry(section, joints, "rigid", h_heel, h_coarse, h_int, growth,
+                            extent_up, extent_down, extent_depth, grading, heel_zone,
+                            reservoir_level)
+        rock = _rock_only(section.base_width, hh_r, h_coarse, h_int_r, growth, extent_up,
+                          extent_down, extent_depth, grading, heel_zone)
         ngmesh = merge_meshes(dam, rock)
     mesh = ngs.Mesh(ngmesh)
     nseg = sum(1 for el in mesh.Boundaries("interface").Elements())
@@ -155,41 +154,125 @@ def koyna_mesh(foundation: str = "rock", h_heel: float = 0.1, h_coarse: float = 
     return mesh, info
 
 
-def _koyna_single(foundation, h_heel, h_coarse, h_int, growth, eu, ed, edep, grading,
-                  heel_zone=0.0, reservoir_level=None):
+def _joint_stations(xu, xd, h_end, h_joint, growth):
+    """Stations along a lift joint graded from both ends towards the middle."""
+    half = 0.5 * (xd - xu)
+    a = _interface_stations(xu, xu + half, h_end, h_joint, growth)
+    b = _interface_stations(xd - half, xd, h_end, h_joint, growth, heel_at_start=False)
+    pts = sorted(a + b)
+    out = []
+    for x, h in pts:
+        if out and x - out[-1][0] < 0.5 * min(h, out[-1][1]):
+            continue
+        out.append((x, h))
+    return out
+
+
+def _dam_geometry(section, joints, foundation, h_heel, h_coarse, h_int, growth, eu, ed,
+                  edep, grading, heel_zone=0.0, reservoir_level=None):
+    """The netgen geometry of the section (and rock block), meshed.
+
+    Points are appended in a fixed order (base stations, toe, the other profile vertices,
+    upstream-face stations, joint points): for the Koyna profile without joints this is the
+    order of the original Koyna mesher, so the mesh (and every result) is unchanged."""
     from netgen.geom2d import SplineGeometry
 
+    P = section.vertices
+    W = section.base_width
+    top_y = section.height
     geo = SplineGeometry()
-    W = BASE_WIDTH
-    # interface stations from heel (0,0) towards the toe (70,0)
+    # blocks bottom up: block k (1-based) lies between joint k-1 and joint k
+    bounds = [0.0] + [j.elevation for j in joints] + [np.inf]
+
+    def block(y):
+        return int(np.searchsorted(bounds, y, side="right"))
+
+    # base stations from the heel (0,0) towards the toe (W,0)
     st = _interface_stations(0.0, W, h_heel, h_int, growth, heel_zone=heel_zone)
     ip = [geo.AppendPoint(x, 0.0, maxh=h) for x, h in st]
     toe = geo.AppendPoint(W, 0.0, maxh=h_int)
-    ds1 = geo.AppendPoint(*KOYNA_DAM[2])
-    ds2 = geo.AppendPoint(*KOYNA_DAM[3])
-    top = geo.AppendPoint(*KOYNA_DAM[4])
-    # upstream face: stations above the heel, graded the same way
-    sv = _interface_stations(0.0, DAM_HEIGHT, h_heel, h_coarse, growth)
-    if reservoir_level is not None and 0.0 < reservoir_level < DAM_HEIGHT:
+    vid = {1: toe}
+    for k in range(2, P.shape[0]):
+        vid[k] = geo.AppendPoint(*P[k])
+    # upstream face: stations by arc length from the heel, graded the same way
+    L_up = section.upstream_length()
+    sv = _interface_stations(0.0, L_up, h_heel, h_coarse, growth)
+    if reservoir_level is not None and 0.0 < reservoir_level < top_y:
         # a vertex at the water line: the hydrostatic pressure is then linear on every
         # upstream edge and its integral exact
-        H = float(reservoir_level)
-        if min(abs(y - H) for y, _ in sv) > 1e-9:
-            sv = sorted(sv + [(H, interface_size(H, h_heel, h_coarse, growth))])
-    up = [geo.AppendPoint(0.0, y, maxh=h) for y, h in sv[1:]]
-    dam, rock = 1, 2
+        sH = section.upstream_arclength(float(reservoir_level))
+        if min(abs(s - sH) for s, _ in sv) > 1e-9:
+            sv = sorted(sv + [(sH, interface_size(sH, h_heel, h_coarse, growth))])
+    chain = section.upstream_chain()
+    cum = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(chain, axis=0).T))])
+    up_pts = []                                     # (arc length, point id, (x, y))
+    s_joint = [(section.upstream_arclength(j.elevation), j.h_end) for j in joints]
+    for s, h in sv[1:]:
+        if np.min(np.abs(cum - s)) <= 1e-9:
+            continue                                # a profile vertex already
+        if any(abs(s - sj) < 0.5 * min(h, hj) for sj, hj in s_joint):
+            continue                                # a joint's end point takes its place
+        xy = section.upstream_point(s)
+        up_pts.append((s, geo.AppendPoint(*xy, maxh=h), xy))
+    # joint end points (on both faces) and stations
+    jpts = []
+    for j in joints:
+        xu, xd = section.width_at(j.elevation)
+        ends = []
+        for face, x in (("upstream", xu), ("downstream", xd)):
+            hit = np.flatnonzero(np.hypot(P[:, 0] - x, P[:, 1] - j.elevation) <= 1e-9)
+            if hit.size:                          # the cut passes through a profile vertex
+                ends.append(vid[int(hit[0])])
+                continue
+            pid = geo.AppendPoint(x, j.elevation, maxh=j.h_end)
+            ends.append(pid)
+            if face == "upstream":
+                up_pts.append((section.upstream_arclength(j.elevation), pid,
+                               (x, j.elevation)))
+        jst = _joint_stations(xu, xd, j.h_end, j.h_joint, growth)
+        mids = [geo.AppendPoint(x, j.elevation, maxh=h) for x, h in jst
+                if xu + 0.5 * j.h_end < x < xd - 0.5 * j.h_end]
+        jpts.append((j, ends[0], mids, ends[1], (xu, xd)))
+    up_pts.sort(key=lambda t: t[0])
+
+    # ---- segments ----
+    dam = 1
+    nblocks = len(joints) + 1
+    rock = nblocks + 1
     rd = rock if foundation == "rock" else 0
-    chain = ip + [toe]
-    for a, b, (x, h) in zip(chain[:-1], chain[1:], st):
+    chain_b = ip + [toe]
+    for a, b, (x, h) in zip(chain_b[:-1], chain_b[1:], st):
         geo.Append(["line", a, b], leftdomain=dam, rightdomain=rd, bc="interface",
                    maxh=h_int)
-    geo.Append(["line", toe, ds1], leftdomain=dam, rightdomain=0, bc="downstream")
-    geo.Append(["line", ds1, ds2], leftdomain=dam, rightdomain=0, bc="downstream")
-    geo.Append(["line", ds2, top], leftdomain=dam, rightdomain=0, bc="crest")
-    vchain = [top] + up[::-1] + [ip[0]]
-    for a, b in zip(vchain[:-1], vchain[1:]):
-        geo.Append(["line", a, b], leftdomain=dam, rightdomain=0, bc="upstream")
-    geo.SetMaterial(dam, "dam")
+    # downstream face (toe -> crest corner), split at joint points, then the crest
+    dpts = [(P[k, 1], vid[k], tuple(P[k])) for k in section.downstream]
+    for j, e_up, mids, e_dn, (xu, xd) in jpts:
+        if not any(pid == e_dn for _, pid, _ in dpts):
+            dpts.append((j.elevation, e_dn, (xd, j.elevation)))
+    dpts.sort(key=lambda t: (t[0], t[2][0] if t[0] >= top_y - 1e-9 else 0.0))
+    # order along the face: by elevation, and along the crest edge (if any) right to left
+    top_part = [q for q in dpts if q[0] >= top_y - 1e-9]
+    dpts = [q for q in dpts if q[0] < top_y - 1e-9] + \
+        [q for k in section.downstream for q in top_part if q[1] == vid[k]]
+    for (ya, a, pa), (yb, b, pb) in zip(dpts[:-1], dpts[1:]):
+        crest = ya >= top_y - 1e-9 and yb >= top_y - 1e-9
+        geo.Append(["line", a, b], leftdomain=block(0.5 * (ya + yb)), rightdomain=0,
+                   bc="crest" if crest else "downstream")
+    # upstream face from the crest corner down to the heel
+    ucorner = [(section.upstream_arclength(P[k, 1]) if k != section.i_top else L_up, vid[k],
+                tuple(P[k])) for k in section.upstream[:-1]]
+    upath = sorted(ucorner + up_pts, key=lambda t: -t[0]) + [(0.0, ip[0], (0.0, 0.0))]
+    for (sa, a, pa), (sb, b, pb) in zip(upath[:-1], upath[1:]):
+        geo.Append(["line", a, b], leftdomain=block(0.5 * (pa[1] + pb[1])), rightdomain=0,
+                   bc="upstream")
+    # lift joints: upstream -> downstream, the block above on the left
+    for k, (j, e_up, mids, e_dn, _) in enumerate(jpts):
+        jc = [e_up] + mids + [e_dn]
+        for a, b in zip(jc[:-1], jc[1:]):
+            geo.Append(["line", a, b], leftdomain=k + 2, rightdomain=k + 1, bc=j.name,
+                       maxh=j.h_joint)
+    for k, name in enumerate(dam_block_names(joints)):
+        geo.SetMaterial(k + 1, name)
     if foundation == "rock":
         xl, xr, yb = -eu * W, W + ed * W, -edep * W
         # rock top upstream, graded away from the heel
@@ -211,11 +294,10 @@ def _koyna_single(foundation, h_heel, h_coarse, h_int, growth, eu, ed, edep, gra
     return geo.GenerateMesh(maxh=h_coarse, grading=grading)
 
 
-def _rock_only(h_heel, h_coarse, h_int, growth, eu, ed, edep, grading, heel_zone=0.0):
+def _rock_only(W, h_heel, h_coarse, h_int, growth, eu, ed, edep, grading, heel_zone=0.0):
     from netgen.geom2d import SplineGeometry
 
     geo = SplineGeometry()
-    W = BASE_WIDTH
     xl, xr, yb = -eu * W, W + ed * W, -edep * W
     st = _interface_stations(0.0, W, h_heel, h_int, growth, heel_zone=heel_zone)
     ip = [geo.AppendPoint(x, 0.0, maxh=h) for x, h in st]

@@ -17,14 +17,16 @@ Plane strain, small strains, isotropic linear elasticity.
 from __future__ import annotations
 
 import dataclasses
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 import scipy.sparse as sp
 
 from . import geometry as geom
-from .coupling import Interface, build_interface
+from ..scene import KOYNA_PROFILE
+from ..section import Section
+from .coupling import Interface, build_interface, stack_interfaces
 from .ngs_helpers import find_vertex, to_scipy, vec, vertex_xy_dofs
 
 G_STANDARD = 9.81
@@ -77,7 +79,10 @@ class Model:
     rock_sides: str
     include_rock_weight: bool
     reservoir: Any = None          # fe.reservoir.ReservoirModel ([reservoir] model != "none")
-    crest_point: tuple[float, float] = geom.CREST_UPSTREAM
+    crest_point: tuple[float, float] = (0.0, 103.0)
+    regions: tuple = ("dam", "rock")       # one displacement field per region, fes order
+    joints: dict = field(default_factory=dict)   # name -> Interface (base first)
+    section: Any = None
 
     @property
     def nfree(self) -> int:
@@ -104,20 +109,18 @@ class Model:
         field; on the interface itself the value is side-dependent)."""
         import ngsolve as ngs
 
-        if self.foundation == "rigid":
+        if len(self.regions) == 1:
             return gf
-        return self.mesh.MaterialCF({"dam": gf.components[0], "rock": gf.components[1]},
+        return self.mesh.MaterialCF(dict(zip(self.regions, gf.components)),
                                     default=ngs.CF((0, 0)))
 
     def strain_cf(self, gf):
         import ngsolve as ngs
 
-        if self.foundation == "rigid":
-            e = ngs.Sym(ngs.Grad(gf))
-            return e
-        e0 = ngs.Sym(ngs.Grad(gf.components[0]))
-        e1 = ngs.Sym(ngs.Grad(gf.components[1]))
-        return self.mesh.MaterialCF({"dam": e0, "rock": e1})
+        if len(self.regions) == 1:
+            return ngs.Sym(ngs.Grad(gf))
+        return self.mesh.MaterialCF({r: ngs.Sym(ngs.Grad(c))
+                                     for r, c in zip(self.regions, gf.components)})
 
     def stress_cf(self, gf):
         """In-plane Cauchy stress (plane strain), 2x2 CoefficientFunction."""
@@ -180,12 +183,16 @@ def build_model(foundation: str = "rock", order: int = 1, gauss_points: int = 3,
                 rock_sides: str = "fixed", include_rock_weight: bool = False,
                 mesh=None, mesh_info: geom.MeshInfo | None = None,
                 clamp_base: bool = False, crest_point: tuple[float, float] | None = None,
+                section: Section | None = None, joints=(), joint_gauss=None,
                 **mesh_kw) -> Model:
     """Assemble the linear model.
 
-    mesh_kw go to ``geometry.koyna_mesh`` (h_heel, h_coarse, h_interface, growth,
-    heel_zone, grading, extent_up/down/depth, matching, ...).  A prepared mesh (e.g.
-    ``geometry.two_block_mesh``) can be passed instead.
+    section: the dam's ``Section`` (default: the Koyna profile); joints: lift joints
+    (``geometry.JointSpec``), each cutting the dam into blocks with their own displacement
+    fields, coupled only through the joint's interface law.  mesh_kw go to
+    ``geometry.dam_mesh`` (h_heel, h_coarse, h_interface, growth, heel_zone, grading,
+    extent_up/down/depth, matching, ...).  A prepared mesh (e.g. ``geometry.two_block_mesh``)
+    can be passed instead.
 
     rock_sides: "fixed" (default; both components), "roller" (u_x = 0, u_y free) or
     "free".  clamp_base (rigid foundation only): Dirichlet-fix the dam base instead of
@@ -204,9 +211,12 @@ def build_model(foundation: str = "rock", order: int = 1, gauss_points: int = 3,
         raise ValueError(f"gauss_points={gauss_points}: must be >= 1")
     # reservoir: a scene [reservoir] table (fe/reservoir.py; none -> nothing is built)
     reservoir = mesh_kw.pop("reservoir", None)
+    joints = tuple(sorted(joints, key=lambda j: j.elevation))
     if mesh is None:
-        mesh, mesh_info = geom.koyna_mesh(foundation=foundation,
-                                          reservoir_level=reservoir_level, **mesh_kw)
+        if section is None:
+            section = Section(KOYNA_PROFILE)
+        mesh, mesh_info = geom.dam_mesh(section, joints, foundation=foundation,
+                                        reservoir_level=reservoir_level, **mesh_kw)
     elif mesh_info is None:
         nseg = sum(1 for _ in mesh.Boundaries("interface").Elements())
         mesh_info = geom.MeshInfo(foundation, "interface_rock" not in mesh.GetBoundaries(),
@@ -218,34 +228,40 @@ def build_model(foundation: str = "rock", order: int = 1, gauss_points: int = 3,
         mesh = add_water(mesh, reservoir)
     bnds = set(mesh.GetBoundaries())
     matching = "interface_rock" not in bnds
-    mats = {"dam": dam} if foundation == "rigid" else {"dam": dam, "rock": rock}
+    blocks = geom.dam_block_names(joints)
+    regions = blocks + ([] if foundation == "rigid" else ["rock"])
+    mats = {b: dam for b in blocks}
+    if foundation != "rigid":
+        mats["rock"] = rock
 
-    # ---- spaces ----
-    Vd = ngs.Compress(ngs.VectorH1(mesh, order=order, definedon="dam",
-                                   dirichlet="interface" if clamp_base else ""))
-    if foundation == "rigid":
-        fes = Vd
-        u = fes.TrialFunction()
-        v = fes.TestFunction()
-        ud, vd, ur, vr = u, v, None, None
-    else:
+    # ---- spaces: one displacement field per dam block (and the rock) ----
+    spaces = [ngs.Compress(ngs.VectorH1(mesh, order=order, definedon=b,
+                                        dirichlet="interface" if clamp_base and k == 0
+                                        else "")) for k, b in enumerate(blocks)]
+    if foundation != "rigid":
         side_bc = "|rock_left|rock_right" if rock_sides == "fixed" else ""
-        Vr = ngs.Compress(ngs.VectorH1(mesh, order=order, definedon="rock",
-                                       dirichlet="rock_bottom" + side_bc))
-        fes = Vd * Vr
-        (ud, ur), (vd, vr) = fes.TnT()
+        spaces.append(ngs.Compress(ngs.VectorH1(mesh, order=order, definedon="rock",
+                                                dirichlet="rock_bottom" + side_bc)))
+    if len(spaces) == 1:
+        fes = spaces[0]
+        trial, test = (fes.TrialFunction(),), (fes.TestFunction(),)
+    else:
+        fes = ngs.FESpace(spaces)
+        trial, test = fes.TnT()
+    offsets = np.concatenate([[0], np.cumsum([V.ndof for V in spaces])]).astype(np.int64)
     freemask = np.array(list(fes.FreeDofs()), dtype=bool)
     if foundation == "rock" and rock_sides == "roller":
         # Compress drops per-component Dirichlet flags; the compressed VectorH1 keeps the
         # component-block layout (x block, then y block), so remove the x-DOFs of the
         # side boundaries by hand.
+        Vr = spaces[-1]
         Vr_s = ngs.Compress(ngs.VectorH1(mesh, order=order, definedon="rock",
                                          dirichlet="rock_bottom|rock_left|rock_right"))
         assert Vr_s.ndof == Vr.ndof
         side = np.array(list(Vr.FreeDofs()), bool) & ~np.array(list(Vr_s.FreeDofs()), bool)
         nx = Vr.ndof // 2
         side_x = np.where(side[:nx])[0]
-        freemask[Vd.ndof + side_x] = False
+        freemask[offsets[-2] + side_x] = False
     free = np.where(freemask)[0]
     nfull = fes.ndof
 
@@ -258,12 +274,11 @@ def build_model(foundation: str = "rock", order: int = 1, gauss_points: int = 3,
         return m.lam * ngs.Trace(e) * ngs.Id(2) + 2 * m.mu * e
 
     a = ngs.BilinearForm(fes)
-    a += ngs.InnerProduct(sigma(ud, dam), ngs.Sym(ngs.Grad(vd))) * ngs.dx("dam")
     m = ngs.BilinearForm(fes)
-    m += dam.rho * ud * vd * ngs.dx("dam")
-    if ur is not None:
-        a += ngs.InnerProduct(sigma(ur, rock), ngs.Sym(ngs.Grad(vr))) * ngs.dx("rock")
-        m += rock.rho * ur * vr * ngs.dx("rock")
+    for uu, vv, reg in zip(trial, test, regions):
+        mat = mats[reg]
+        a += ngs.InnerProduct(sigma(uu, mat), ngs.Sym(ngs.Grad(vv))) * ngs.dx(reg)
+        m += mat.rho * uu * vv * ngs.dx(reg)
     a.Assemble()
     m.Assemble()
     K = restrict(to_scipy(a.mat))
@@ -283,18 +298,25 @@ def build_model(foundation: str = "rock", order: int = 1, gauss_points: int = 3,
 
     # ---- loads ----
     fg = ngs.LinearForm(fes)
-    fg += -dam.rho * gravity * vd[1] * ngs.dx("dam")
-    if ur is not None and include_rock_weight:
-        fg += -rock.rho * gravity * vr[1] * ngs.dx("rock")
+    for vv, reg in zip(test, regions):
+        if reg != "rock":
+            fg += -dam.rho * gravity * vv[1] * ngs.dx(reg)
+        elif include_rock_weight:
+            fg += -rock.rho * gravity * vv[1] * ngs.dx(reg)
     fg.Assemble()
     H = reservoir_level
     pw = water_density * gravity * ngs.IfPos(H - ngs.y, H - ngs.y, 0.0)
     fw = ngs.LinearForm(fes)
-    # upstream face (outward normal -x): pressure pushes downstream, traction (+p, 0)
-    fw += pw * vd[0] * ngs.ds("upstream", bonus_intorder=2)
-    if ur is not None and "rock_top_up" in bnds:
+    # upstream face: the pressure acts against the outward normal, traction -p n. The mesh's
+    # normal sign is not relied on: the dam's outward normal on its upstream face points
+    # upstream (n_x < 0), which fixes the orientation.
+    nrm = ngs.specialcf.normal(2)
+    n_out = ngs.IfPos(nrm[0], -1.0, 1.0) * nrm
+    for vv in test[:len(blocks)]:    # each block's field is zero on the others' edges
+        fw += -pw * ngs.InnerProduct(n_out, vv) * ngs.ds("upstream", bonus_intorder=2)
+    if foundation != "rigid" and "rock_top_up" in bnds:
         # rock top upstream of the heel (outward normal +y): traction (0, -p(y=0))
-        fw += -water_density * gravity * H * vr[1] * ngs.ds("rock_top_up")
+        fw += -water_density * gravity * H * test[-1][1] * ngs.ds("rock_top_up")
     fw.Assemble()
     f_gravity = vec(fg)[free]
     f_water = vec(fw)[free]
@@ -302,11 +324,11 @@ def build_model(foundation: str = "rock", order: int = 1, gauss_points: int = 3,
     # ---- influence vectors ----
     def influence(cf):
         gf = ngs.GridFunction(fes)
-        if foundation == "rigid":
+        if len(spaces) == 1:
             gf.Set(cf)
         else:
-            gf.components[0].Set(cf)
-            gf.components[1].Set(cf)
+            for c in gf.components:
+                c.Set(cf)
         return vec(gf)[free]
 
     r_x = influence(ngs.CF((1.0, 0.0)))
@@ -314,21 +336,31 @@ def build_model(foundation: str = "rock", order: int = 1, gauss_points: int = 3,
 
     # ---- masks, crest ----
     dam_full = np.zeros(nfull, bool)
-    dam_full[:Vd.ndof] = True
+    dam_full[:offsets[len(blocks)]] = True
     dam_dofs = dam_full[free]
     inv = -np.ones(nfull, dtype=np.int64)
     inv[free] = np.arange(free.size)
     if crest_point is None:
-        crest_point = geom.CREST_UPSTREAM if "rock_top_up" in bnds or foundation == "rigid" \
-            else top_left(mesh, "dam")
+        crest_point = (section.crest_upstream if section is not None
+                       else top_left(mesh, blocks[-1]))
     crest_v = find_vertex(mesh, *crest_point)
-    cd = Vd.GetDofNrs(ngs.NodeId(ngs.VERTEX, crest_v))
-    crest = vertex_xy_dofs(Vd, cd)
-    crest_dofs = (int(inv[crest[0]]), int(inv[crest[1]]))
+    kt = len(blocks) - 1                      # the top block holds the crest
+    cd = spaces[kt].GetDofNrs(ngs.NodeId(ngs.VERTEX, crest_v))
+    crest = vertex_xy_dofs(spaces[kt], cd)
+    crest_dofs = (int(inv[offsets[kt] + crest[0]]), int(inv[offsets[kt] + crest[1]]))
 
-    # ---- interface operator ----
-    iface = build_interface(mesh, fes, Vd, None if foundation == "rigid" else Vr, free,
-                            gauss_points, foundation, matching, order)
+    # ---- interface operators: the base, then the lift joints bottom up ----
+    base = build_interface(mesh, fes, spaces[0], None if foundation == "rigid" else spaces[-1],
+                           free, gauss_points, foundation, matching, order,
+                           upper=0, lower=None if foundation == "rigid" else len(spaces) - 1,
+                           rock_offset=int(offsets[-2]), name="base")
+    joint_ifaces = [base]
+    for k, j in enumerate(joints):
+        ng = gauss_points if joint_gauss is None else joint_gauss
+        joint_ifaces.append(build_interface(mesh, fes, spaces[k + 1], spaces[k], free, ng,
+                                            "joint", True, order, upper=k + 1, lower=k,
+                                            boundary=j.name, name=j.name))
+    iface = base if len(joint_ifaces) == 1 else stack_interfaces(joint_ifaces)
 
     return Model(mesh=mesh, info=mesh_info, fes=fes, foundation=foundation, order=order,
                  free=free, K=K, M=M, f_gravity=f_gravity, f_water=f_water, r_x=r_x,
@@ -337,7 +369,9 @@ def build_model(foundation: str = "rock", order: int = 1, gauss_points: int = 3,
                  water_density=water_density, lumped_mass=lumped_mass,
                  rock_sides=rock_sides, include_rock_weight=include_rock_weight,
                  reservoir=res_model,
-                 crest_point=tuple(float(c) for c in crest_point))
+                 crest_point=tuple(float(c) for c in crest_point),
+                 regions=tuple(regions), joints={ji.name: ji for ji in joint_ifaces},
+                 section=section)
 
 
 def top_left(mesh, region: str) -> tuple[float, float]:
@@ -356,7 +390,10 @@ def model_kwargs(scene) -> dict:
         d = getattr(scene.materials, region)
         return Material(d.E, d.nu, d.rho)
 
-    return dict(foundation=g.foundation, order=m.order, gauss_points=m.gauss_points,
+    joints = tuple(geom.JointSpec(j.name, j.elevation, j.h_end or m.h_heel,
+                                  j.h_joint or m.h_interface) for j in scene.joints)
+    return dict(section=scene.section, joints=joints,
+                foundation=g.foundation, order=m.order, gauss_points=m.gauss_points,
                 dam=mat("dam"), rock=mat("rock"),
                 gravity=L.gravity, reservoir_level=L.reservoir_level,
                 water_density=L.water_density, lumped_mass=m.lumped_mass,

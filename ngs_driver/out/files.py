@@ -75,8 +75,8 @@ def _csv_text(header: list[str], cols: list[np.ndarray], comments=()) -> str:
     lines = [f"# {c}" for c in comments]
     lines.append(",".join(header))
     data = np.column_stack([np.asarray(c, float) for c in cols]) if cols else np.zeros((0, 0))
-    for row in data:
-        lines.append(",".join(f"{v:.10g}" for v in row))
+    for row in data.tolist():            # shortest repr that round-trips: exact values
+        lines.append(",".join(map(repr, row)))
     return "\n".join(lines) + "\n"
 
 
@@ -86,12 +86,14 @@ def write_timeseries_csv(path, H: dict, keys, comments=()):
 
 
 
-def write_damage_csv(path, x, w, snaps, comments=()):
-    header = ["x", "w"] + [f"D_t={t:.4f}" for t in snaps["t"]] + \
-        [f"kappa_t={t:.4f}" for t in snaps["t"]]
-    cols = [x, w] + list(snaps["D"]) + list(snaps["kappa"])
+def write_damage_csv(path, x, w, snaps, comments=(), sl=slice(None)):
+    """D, kappa, opening and slip along one joint (points ``sl``) at the snapshot times."""
+    ts = snaps["t"]
+    header = (["x", "w"] + [f"D_t={t:.4f}" for t in ts] + [f"kappa_t={t:.4f}" for t in ts]
+              + [f"opening_t={t:.4f}" for t in ts] + [f"slip_t={t:.4f}" for t in ts])
+    cols = [x[sl], w[sl]] + [np.asarray(v)[sl] for key in ("D", "kappa", "opening", "slip")
+                             for v in snaps[key]]
     return atomic_write_text(path, _csv_text(header, cols, comments))
-
 
 
 def read_csv(path) -> dict:
@@ -104,42 +106,53 @@ def read_csv(path) -> dict:
 
 
 
-def write_run_outputs(out, model, scene, gm, H, snaps, solver, u_static, plots=True,
-                      heel=None):
+def write_run_outputs(out, model, scene, gm, H, snaps, solver, u_static, joints,
+                      plots=True, heel=None):
     """CSV + PNG of one run; returns the list of file names written."""
-    from ..run.record import HIST_KEYS
     from ..setup import FORMULATION
     from . import plots as P
 
     out = pathlib.Path(out)
     lab = gm.label + (" [SYNTHETIC record]" if gm.synthetic else "")
     a = scene.interface.alpha
+    cp = model.crest_point
     com = [f"scene {scene.name}, alpha = {a:g}, record: {lab}", f"formulation: {FORMULATION}",
-           "crest = upstream crest corner (0, 103); displacements relative to the ground, "
-           "including the static state"]
+           f"crest = upstream crest corner ({cp[0]:g}, {cp[1]:g}); displacements relative to "
+           "the ground, including the static state"]
     files = []
-    keys = ["t", "crest_ux", "crest_uy"]
-    write_timeseries_csv(out / "crest_displacement.csv", H, keys, com)
+    write_timeseries_csv(out / "crest_displacement.csv", H, ["t", "crest_ux", "crest_uy"], com)
     files.append("crest_displacement.csv")
-    write_timeseries_csv(out / "timeseries.csv", H, list(HIST_KEYS),
-                         com + ["crack_length = sum of w over debonded points; "
-                                "crack_length_heel = contiguous debonded length from x = 0"])
+    write_timeseries_csv(out / "timeseries.csv", H, list(H),
+                         com + ["crack_length = sum of w over debonded points of the base; "
+                                "crack_length_heel = contiguous debonded length from the heel; "
+                                "<joint>_* the same per joint (crack_length_upstream from its "
+                                "upstream end); energy terms [J/m] from the static state "
+                                "(docs/decisions.md §7.4)"])
     files.append("timeseries.csv")
     iface = model.interface
-    write_damage_csv(out / "damage_profiles.csv", iface.x, iface.w, snaps,
-                     com + ["D(x) and kappa(x) at the interface Gauss points (heel first)"])
-    files.append("damage_profiles.csv")
+    for name, sl in zip(joints.names, joints.slices):
+        f = "damage_profiles.csv" if name == "base" else f"damage_profiles_{name}.csv"
+        write_damage_csv(out / f, iface.x, iface.w, snaps,
+                         com + [f"joint {name}: D(x), kappa(x), opening and slip [m] at its "
+                                "Gauss points (upstream end first)"], sl=sl)
+        files.append(f)
     if not plots:
         return files
-    title = f"Koyna, {scene.name}, alpha = {a:g} -- {lab}"
+    title = f"{scene.name}, alpha = {a:g} -- {lab}"
     t = np.concatenate([[0.0], H["t"]])
     ux = np.concatenate([[u_static[model.crest_dofs[0]]], H["crest_ux"]])
     uy = np.concatenate([[u_static[model.crest_dofs[1]]], H["crest_uy"]])
     files.append(P.plot_crest(out / "fig10_crest_displacement.png",
                             [(f"alpha = {a:g}", t, ux, uy)], title))
-    files.append(P.plot_damage_profiles(out / "fig11_damage_profiles.png",
-                                      [(f"alpha = {a:g}", iface.x, snaps["t"], snaps["D"])],
-                                      title, xmax=P.damage_xmax(snaps, iface.x)))
+    for name, sl in zip(joints.names, joints.slices):
+        D = [np.asarray(v)[sl] for v in snaps["D"]]
+        x = iface.x[sl]
+        f = "fig11_damage_profiles.png" if name == "base" else f"damage_profiles_{name}.png"
+        files.append(P.plot_damage_profiles(out / f, [(f"alpha = {a:g}", x, snaps["t"], D)],
+                                            title + ("" if name == "base" else
+                                                     f" -- joint {name}"),
+                                            xmax=P.damage_xmax({"D": D}, x)))
+    files.append(P.plot_energy(out / "energy_budget.png", H, joints.names, title))
     files.append(P.plot_crack_length(out / "crack_length.png",
                                    [(f"alpha = {a:g}", H["t"], H["crack_length_heel"],
                                      H["crack_length"])], title))

@@ -14,7 +14,7 @@ import numpy as np
 from .files import atomic_write_bytes
 
 __all__ = ["plot_crest", "plot_damage_profiles", "plot_crack_length", "plot_heel_von_mises",
-           "plot_mesh", "VTKWriter"]
+           "plot_mesh", "plot_energy", "damage_xmax"]
 
 
 def _plt():
@@ -60,14 +60,38 @@ def plot_damage_profiles(path, panels, title, xmax=None):
         cmap = plt.get_cmap("viridis")
         for i, (t, D) in enumerate(zip(times, Ds)):
             a.plot(x, D, lw=1.0, color=cmap(i / max(1, len(times) - 1)), label=f"t = {t:.2f} s")
-        a.set_xlabel("x from the heel [m]")
+        a.set_xlabel("x [m] (the heel at 0)")
         a.set_ylabel("damage D")
         a.set_title(ptitle, fontsize=9)
         if xmax is not None:
-            a.set_xlim(0, xmax)
+            a.set_xlim(min(0.0, float(np.min(x))), xmax)
         a.grid(alpha=0.3)
         a.legend(fontsize=7, ncol=2)
     fig.suptitle(title, fontsize=9)
+    return _savefig(fig, path)
+
+
+def plot_energy(path, H, joints, title):
+    """The energy budget over time (run.energy): input work, kinetic, bulk, damping, each
+    joint's stored and dissipated energy, and the balance residual."""
+    plt = _plt()
+    fig, (ax, ar) = plt.subplots(2, 1, figsize=(8, 6), sharex=True,
+                                 gridspec_kw={"height_ratios": [3, 1]})
+    t = H["t"]
+    for k, lab in (("W_ext", "external work"), ("E_kin", "kinetic"), ("E_bulk", "bulk elastic"),
+                   ("E_damp", "Rayleigh damping")):
+        ax.plot(t, H[k], lw=1.0, label=lab)
+    for j in joints:
+        ax.plot(t, H[f"{j}_E_stored"], lw=0.8, ls="--", label=f"{j}: stored")
+        ax.plot(t, H[f"{j}_E_diss"], lw=0.8, ls=":", label=f"{j}: dissipated")
+    ax.set_ylabel("energy [J/m]")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=7, ncol=2)
+    ax.set_title(title, fontsize=9)
+    ar.plot(t, H["residual"], lw=0.8, color="k")
+    ar.set_ylabel("residual [J/m]")
+    ar.set_xlabel("t [s]")
+    ar.grid(alpha=0.3)
     return _savefig(fig, path)
 
 
@@ -166,27 +190,6 @@ def plot_mesh(path, model, title):
     return _savefig(fig, path)
 
 
-class VTKWriter:
-    """NGSolve VTKOutput time series (displacement, von Mises)."""
-
-    def __init__(self, model, filename):
-        import ngsolve as ngs
-
-        self.model = model
-        self.gf = ngs.GridFunction(model.fes)
-        pathlib.Path(filename).parent.mkdir(parents=True, exist_ok=True)
-        self.vtk = ngs.VTKOutput(model.mesh,
-                                 coefs=[model.displacement_cf(self.gf),
-                                        model.von_mises(self.gf)],
-                                 names=["displacement", "von_mises"],
-                                 filename=str(filename), subdivision=0)
-        self.path_hint = pathlib.Path(filename).parent.name + "/"
-
-    def write(self, u, t):
-        self.model.to_gridfunction(u, self.gf)
-        self.vtk.Do(time=float(t))
-
-
 # ---------------------------------------------------------------------------------------------
 # ---------------------------------------------------------------------------------------------
 
@@ -195,5 +198,6 @@ def damage_xmax(snaps, x):
     """x range of the D(x) plots: where damage lives, at least 5 m."""
     D = np.max(np.asarray(snaps["D"]), axis=0) if len(snaps["D"]) else np.zeros_like(x)
     nz = np.flatnonzero(D > 1e-6)
-    xm = float(x[nz[-1]]) * 1.5 if nz.size else 5.0
-    return float(min(max(5.0, xm), x.max()))
+    x0 = float(x[0])
+    xm = (float(x[nz[-1]]) - x0) * 1.5 if nz.size else 5.0
+    return x0 + float(min(max(5.0, xm), x.max() - x0))

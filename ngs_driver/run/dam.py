@@ -1,23 +1,23 @@
-"""The Koyna seismic fracture run (issue #6): static state, then the record, step by step.
+"""A dam run: static state, then the record, step by step (the orchestration only).
 
-``run(scene, outdir)`` builds the model (``fe.model.build_from_scene``), the interface law from
-``[interface]``, the size-scale adaptive parameters (``interfacelaw.scaling.SizeScaling``,
-updated at the start of every step from the failed length b = sum of w over debonded points,
-size used max(b_ref, b)), Rayleigh damping from the modal analysis (C = a0 M + a1 K, bulk K
-only) and the ``NewmarkSolver``.  The static state (dead load + reservoir) is solved with the
-interface law by the same solver and committed; then the ground motion (default: the shipped
-SYNTHETIC Koyna-like record) enters as the effective load
+``run(scene, outdir)`` validates the scene (``setup.validate``: laws, record) before anything
+is written, builds the model (``fe.model.build_from_scene``: the section, its lift joints,
+the foundation), one interface law per joint with its size-scale state (``run.joints``),
+Rayleigh damping from the modal analysis (C = a0 M + a1 K, bulk K only) and the condensed
+``NewmarkSolver`` (all joints in one gap vector).  The static state (dead load + reservoir)
+is solved with the interface laws and committed; then the ground motion enters as the
+effective load
 
     f(t) = f_static - M (r_x a_x(t) + r_y a_y(t))
 
 (relative formulation: rock bottom fixed, displacements relative to the rigid ground motion).
+Every step records the crest, the solver's work, each joint's measures and the energy budget
+(``run.energy``).
 
-Outputs (``ngs_driver.out``): summary.json (written last, atomically), timeseries.csv,
-damage_profiles.csv, final_state.npz, PNGs, optional VTK; checkpoint.json/.npz every
+Outputs (``out``): summary.json (written last, atomically), timeseries.csv,
+damage_profiles[_<joint>].csv, final_state.npz, PNGs, optional VTK; checkpoint.json/.npz every
 ``output.checkpoint_every`` steps; ``resume=True`` continues from the last checkpoint and gives
 the same results as an uninterrupted run.
-
-NGSolve is imported only when the model is built (``describe`` for --dry-run never does).
 """
 from __future__ import annotations
 
@@ -28,22 +28,17 @@ import time
 import numpy as np
 
 from ..out.files import atomic_savez, atomic_write_json, environment_info
-from ..setup import (FORMULATION, build_law, build_scaling, characteristic_times, law_parts,
-                     load_ground_motion)
+from ..setup import FORMULATION, characteristic_times, law_parts, validate
 from .checkpoint import Checkpointer
-from .record import History, crack_measures, results_from_history, snapshot_steps
+from .energy import EnergyBudget
+from .joints import JointSet
+from .record import HIST_KEYS, History, results_from_history, snapshot_steps
+
 
 class RunInterrupted(RuntimeError):
     """Raised by ``run(..., max_steps=k)`` after k steps (test hook for stop/resume)."""
 
 
-# ---------------------------------------------------------------------------------------------
-# law, scaling, ground motion (no NGSolve)
-# ---------------------------------------------------------------------------------------------
-# ---------------------------------------------------------------------------------------------
-# interface measures
-# ---------------------------------------------------------------------------------------------
-# ---------------------------------------------------------------------------------------------
 def run(scene, outdir=None, resume: bool = False, progress: bool = True,
         max_steps: int | None = None, model=None, plots: bool = True,
         log=print) -> dict:
@@ -54,15 +49,15 @@ def run(scene, outdir=None, resume: bool = False, progress: bool = True,
     of this scene (tests).  plots: False skips PNG/VTK output (tests)."""
     from ..fe.modal import damping_from_modes, k0_from_scene, modal_analysis
     from ..out import files as outfiles
-    from ..out import plots as outplots
+    from ..out import vtk as outvtk
     from ..out.report import format_summary
     from ..solve.newmark import NewmarkSolver, SolverError
 
     T0 = time.perf_counter()
+    gm = validate(scene)                      # nothing is written for a bad scene
     out = pathlib.Path(outdir if outdir is not None else scene.output.dir)
-    out.mkdir(parents=True, exist_ok=True)
-    summary_path = out / "summary.json"
     ckp = Checkpointer(out, scene.output.checkpoint_every)
+    summary_path = out / "summary.json"
     scene_d = scene.to_dict()
     ck = None
     if resume:
@@ -72,15 +67,14 @@ def run(scene, outdir=None, resume: bool = False, progress: bool = True,
                              "scene (or different --set values); allowed: the same scene and "
                              "overrides as the interrupted run")
         ck = (meta, arrs)
-    else:
-        # a fresh run: nothing of a previous run may look complete or resumable
-        for p in [summary_path, ckp.meta_path, *out.glob("checkpoint_*.npz")]:
-            if p.exists():
-                p.unlink()
-    if summary_path.exists():
-        summary_path.unlink()
+    out.mkdir(parents=True, exist_ok=True)
+    stale = [summary_path] if resume else [summary_path, ckp.meta_path,
+                                           *out.glob("checkpoint_*.npz")]
+    for p in stale:                      # nothing of a previous run may look complete
+        if p.exists():
+            p.unlink()
 
-    # ---- model, law, damping --------------------------------------------------------------
+    # ---- model, laws, damping ---------------------------------------------------------------
     t = time.perf_counter()
     if model is None:
         from ..fe.model import build_from_scene
@@ -88,12 +82,10 @@ def run(scene, outdir=None, resume: bool = False, progress: bool = True,
     t_build = time.perf_counter() - t
     iface = model.interface
     w = iface.w
-    law = build_law(scene)
-    scaling = build_scaling(scene, law)
-    if scaling is not None:
-        law = scaling.update(law, 0.0)
-    ref_coh = law.cohesive
-    k0n, k0t = law.cohesive.k_normal, law.cohesive.k_tangential
+    joints = JointSet(scene, iface)
+    base = joints.slices[0]
+    ref_coh = joints.reference[0].cohesive
+    k0n, k0t = joints.laws[0].cohesive.k_normal, joints.laws[0].cohesive.k_tangential
     kn_s, kt_s = k0_from_scene(scene)
     assert abs(kn_s - k0n) <= 1e-9 * k0n and abs(kt_s - k0t) <= 1e-9 * k0t
 
@@ -109,13 +101,11 @@ def run(scene, outdir=None, resume: bool = False, progress: bool = True,
         damp["a0"], damp["a1"] = ck[0]["rayleigh"]["a0"], ck[0]["rayleigh"]["a1"]
     t_modal = time.perf_counter() - t
     C = (damp["a0"] * model.M + damp["a1"] * model.K).tocsr()
-    ts = scene.time
-    sv = scene.solver
-    solver = NewmarkSolver(model.K, model.M, C, iface.B, w, law, dt=ts.dt,
+    ts, sv = scene.time, scene.solver
+    solver = NewmarkSolver(model.K, model.M, C, iface.B, w, joints.solver_law(), dt=ts.dt,
                            beta=ts.newmark_beta, gamma=ts.newmark_gamma,
                            tol_residual=sv.tol_residual, max_iter=sv.max_iter,
                            min_dt=sv.min_dt)
-    gm = load_ground_motion(scene)
     n_steps = int(round(ts.duration / ts.dt))
     times = ts.dt * np.arange(n_steps + 1)
     ax, ay = gm.at(scene.ground_motion.start + times)
@@ -123,33 +113,36 @@ def run(scene, outdir=None, resume: bool = False, progress: bool = True,
     f_static = model.f_gravity + model.f_water
     cx, cy = model.crest_dofs
     chars = characteristic_times(scene, ref_coh.l_Nc)
+    energy = EnergyBudget(model.K, model.M, C, w, joints)
+    # the wall time stays the last column (everything before it is deterministic)
+    hist_keys = list(HIST_KEYS[:-1]) + joints.history_keys() + energy.keys() + ["wall"]
     if progress:
-        log(f"[{scene.name}] nfree {model.nfree}, interface points {iface.npts}, "
-            f"f1 = {modal.frequencies_hz[0]:.3f} Hz, a0 = {damp['a0']:.4g} 1/s, "
-            f"a1 = {damp['a1']:.4g} s; t1 = {chars['t1']:.3e} s, t2 = {chars['t2']:.3e} s "
-            f"(Eq. 11); record: {gm.label}{' [SYNTHETIC]' if gm.synthetic else ''}")
+        log(f"[{scene.name}] nfree {model.nfree}, joints {', '.join(joints.names)} "
+            f"({iface.npts} interface points), f1 = {modal.frequencies_hz[0]:.3f} Hz, a0 = "
+            f"{damp['a0']:.4g} 1/s, a1 = {damp['a1']:.4g} s; t1 = {chars['t1']:.3e} s, "
+            f"t2 = {chars['t2']:.3e} s (Eq. 11); record: {gm.label}"
+            f"{' [SYNTHETIC]' if gm.synthetic else ''}")
 
     snap_steps = snapshot_steps(n_steps, scene.output.snapshots)
     vtk = None
     if plots and scene.output.vtk_every > 0:
-        vtk = outplots.VTKWriter(model, out / "vtk" / "koyna")
+        vtk = outvtk.VTKWriter(model, out / "vtk" / "dam", joints)
 
-    def size_b(state):
-        return crack_measures(state, w)[0]
+    def update_laws(state, book_energy=True):
+        old = list(joints.laws)
+        if joints.update(state):
+            solver.set_law(joints.solver_law())
+            if book_energy:
+                energy.law_update(old, solver.g, state)
 
-    def update_law(state):
-        """size-scale update at the start of a step; returns the size b used."""
-        nonlocal law
-        if scaling is None:
-            return 0.0
-        b = size_b(state)
-        new = scaling.update(law, b)
-        if new.cohesive != law.cohesive or new.friction != law.friction:
-            law = new
-            solver.set_law(law)
-        return scaling.size(b)
+    def snapshot(snaps, k, tk):
+        st = solver.state
+        for key, val in (("step", k), ("t", float(tk)), ("D", st.damage.copy()),
+                         ("kappa", st.kappa.copy()), ("opening", solver.g[:, 0].copy()),
+                         ("slip", solver.g[:, 1].copy())):
+            snaps[key].append(val)
 
-    # ---- static state or restart ----------------------------------------------------------
+    # ---- static state or restart -----------------------------------------------------------
     if ck is None:
         t = time.perf_counter()
         rep = solver.static(f_static)
@@ -157,7 +150,7 @@ def run(scene, outdir=None, resume: bool = False, progress: bool = True,
         solver.initial_acceleration(f_static - Mrx * ax[0] - Mry * ay[0])
         st = solver.state
         u_static = solver.u.copy()
-        tr = solver.t
+        tr = solver.t[base]
         static_info = {
             "iterations": rep.iterations, "n_active": rep.n_active, "wall": t_static,
             "crest_ux": float(solver.u[cx]), "crest_uy": float(solver.u[cy]),
@@ -169,20 +162,21 @@ def run(scene, outdir=None, resume: bool = False, progress: bool = True,
             "max_D": float(st.damage.max()), "D_heel": float(st.damage[0]),
             "elastic": bool(rep.n_active == 0),
         }
-        hist = History()
-        snaps = {"step": [0], "t": [0.0], "D": [st.damage.copy()], "kappa": [st.kappa.copy()]}
-        k_start = 0
-        dyn_wall_before = 0.0
-        resumed_from = None
+        hist = History(hist_keys)
+        snaps = {k: [] for k in ("step", "t", "D", "kappa", "opening", "slip")}
+        snapshot(snaps, 0, 0.0)
+        k_start, dyn_wall_before, resumed_from = 0, 0.0, None
         # Fig. 12 shows the state of the largest heel opening while the base still holds
         heel = {"u": u_static.copy(), "t": 0.0, "open": float(solver.g[0, 0])}
+        energy.start(solver.u, solver.v, solver.f, solver.t, solver.g, solver.state)
+        update_laws(solver.state)            # the sizes for step 1
     else:
         meta, arrs = ck
         from interfacelaw import InterfaceState
         st = InterfaceState.from_dict({k[6:]: v for k, v in arrs.items()
                                        if k.startswith("state_")})
         solver.state = st
-        update_law(st)
+        update_laws(st, book_energy=False)
         solver.set_initial(u=arrs["u"], v=arrs["v"], a=arrs["a"], f=arrs["f"])
         # committed internals of the condensed solver (bitwise restart)
         for name in ("t", "g", "_phi", "_active"):
@@ -192,12 +186,13 @@ def run(scene, outdir=None, resume: bool = False, progress: bool = True,
         static_info = meta["static"]
         t_static = static_info["wall"]
         u_static = arrs["u_static"]
-        hist = History.from_arrays(arrs)
-        snaps = {"step": [int(s) for s in arrs["snap_step"]],
-                 "t": [float(s) for s in arrs["snap_t"]],
-                 "D": list(arrs["snap_D"]), "kappa": list(arrs["snap_kappa"])}
+        hist = History.from_arrays(arrs, hist_keys)
+        snaps = {k: [float(v) if k == "t" else (int(v) if k == "step" else v)
+                     for v in arrs[f"snap_{k}"]]
+                 for k in ("step", "t", "D", "kappa", "opening", "slip")}
         heel = {"u": arrs["heel_u"], "t": float(meta["heel_t"]),
                 "open": float(meta["heel_open"])}
+        energy.restore(arrs)
         k_start = int(meta["step"])
         dyn_wall_before = float(meta["dynamic_wall"])
         resumed_from = k_start
@@ -206,30 +201,19 @@ def run(scene, outdir=None, resume: bool = False, progress: bool = True,
 
     def checkpoint(k, dyn_wall):
         arrays = {"u": solver.u, "v": solver.v, "a": solver.a, "f": solver.f,
-                  "u_static": u_static}
+                  "u_static": u_static, "heel_u": heel["u"], **energy.state()}
         for name in ("t", "g", "_phi", "_active"):
             if hasattr(solver, name):
                 arrays[f"solver{name}"] = np.asarray(getattr(solver, name))
-        for kk, vv in solver.state.as_dict().items():
-            arrays[f"state_{kk}"] = vv
-        for kk, vv in hist.arrays().items():
-            arrays[f"hist_{kk}"] = vv
-        arrays["snap_step"] = np.asarray(snaps["step"])
-        arrays["snap_t"] = np.asarray(snaps["t"])
-        arrays["snap_D"] = np.asarray(snaps["D"])
-        arrays["snap_kappa"] = np.asarray(snaps["kappa"])
-        arrays["heel_u"] = heel["u"]
-        coh = law.cohesive
+        arrays.update({f"state_{kk}": vv for kk, vv in solver.state.as_dict().items()})
+        arrays.update({f"hist_{kk}": vv for kk, vv in hist.arrays().items()})
+        arrays.update({f"snap_{kk}": np.asarray(vv) for kk, vv in snaps.items()})
         ckp.save(k, {"scene": scene_d, "time": solver.time, "static": static_info,
                      "heel_t": heel["t"], "heel_open": heel["open"],
                      "rayleigh": {"a0": damp["a0"], "a1": damp["a1"]},
-                     "dynamic_wall": dyn_wall,
-                     "law": {"sigma_max": coh.sigma_max, "tau_max": coh.tau_max,
-                             "l_Nc": coh.l_Nc, "l_Tc": coh.l_Tc,
-                             "friction": None if law.friction is None else law.friction.f}},
-                 **arrays)
+                     "dynamic_wall": dyn_wall, "laws": joints.params()}, **arrays)
 
-    # ---- time loop ------------------------------------------------------------------------
+    # ---- time loop -----------------------------------------------------------------------
     from tqdm import tqdm
 
     # disable=None: tqdm turns itself off when stderr is not a terminal (logs stay readable)
@@ -239,9 +223,9 @@ def run(scene, outdir=None, resume: bool = False, progress: bool = True,
     steps_this_call = 0
     stopped = None
     stop_slip = scene.time.stop_slip
+    nb = base.stop - base.start
     try:
         for k in range(k_start + 1, n_steps + 1):
-            b_used = update_law(solver.state)
             f_k = f_static - Mrx * ax[k] - Mry * ay[k]
             try:
                 rep = solver.step(f_k)
@@ -249,42 +233,43 @@ def run(scene, outdir=None, resume: bool = False, progress: bool = True,
                 raise SolverError(f"{scene.name}: step {k} (t = {times[k]:.4f} s): {e}") \
                     from None
             st = solver.state
-            crack, crack_heel, ndeb = crack_measures(st, w)
+            jm = joints.measures(st, solver.g)
+            en = energy.step(solver.u, solver.v, f_k, solver.t, solver.g, st)
             hist.append(step=k, t=times[k], crest_ux=solver.u[cx], crest_uy=solver.u[cy],
                         iterations=rep.iterations, iterations_failed=rep.iterations_failed,
                         cuts=rep.cuts, substeps=len(rep.dts), n_active=rep.n_active,
-                        n_debonded=ndeb, crack_length=crack, crack_length_heel=crack_heel,
-                        max_D=float(st.damage.max()), D_heel=float(st.damage[0]),
-                        kappa_heel=float(st.kappa[0]), size_b=b_used,
-                        sigma_max=law.cohesive.sigma_max, wall=rep.wall)
+                        n_debonded=jm["base_n_debonded"],
+                        crack_length=jm["base_crack_length"],
+                        crack_length_heel=jm["base_crack_length_upstream"],
+                        max_D=jm["base_max_D"], D_heel=float(st.damage[0]),
+                        kappa_heel=float(st.kappa[0]), size_b=jm["base_size_b"],
+                        sigma_max=jm["base_sigma_max"], wall=rep.wall, **jm, **en)
+            update_laws(st)                  # size-scale update for the next step
             if k in snap_steps:
-                snaps["step"].append(k)
-                snaps["t"].append(float(times[k]))
-                snaps["D"].append(st.damage.copy())
-                snaps["kappa"].append(st.kappa.copy())
+                snapshot(snaps, k, times[k])
             if vtk is not None and k % scene.output.vtk_every == 0:
-                vtk.write(solver.u, times[k])
+                vtk.write(solver.u, times[k], solver)
             bar.update(1)
             if progress and (k % 10 == 0 or k == n_steps):
                 bar.set_postfix_str(f"t={times[k]:.3f}s it={rep.iterations} "
                                     f"cuts={int(np.sum(hist.cols['cuts']))} "
-                                    f"crack={crack_heel:.3f}m Dheel={st.damage[0]:.3f}",
-                                    refresh=False)
+                                    f"crack={jm['base_crack_length_upstream']:.3f}m "
+                                    f"Dheel={st.damage[0]:.3f}", refresh=False)
             steps_this_call += 1
-            if ndeb < iface.npts and solver.g[0, 0] > heel["open"]:
+            ndeb = jm["base_n_debonded"]
+            if ndeb < nb and solver.g[0, 0] > heel["open"]:
                 heel = {"u": solver.u.copy(), "t": float(times[k]),
                         "open": float(solver.g[0, 0])}
-            if stop_slip > 0 and ndeb == iface.npts:
-                slip = abs(float(np.dot(w, solver.g[:, 1]) / w.sum()))
-                if slip > stop_slip:
-                    stopped = {"reason": "failure by sliding: the whole interface is debonded "
-                                         f"and the mean base slip {slip:.3g} m exceeds "
-                                         f"time.stop_slip = {stop_slip:g} m (small-displacement "
-                                         "kinematics no longer hold)",
-                               "t": float(times[k]), "step": k}
+            if stop_slip > 0 and ndeb == nb and abs(jm["base_slip_mean"]) > stop_slip:
+                stopped = {"reason": "failure by sliding: the whole base is debonded and its "
+                                     f"mean slip {abs(jm['base_slip_mean']):.3g} m exceeds "
+                                     f"time.stop_slip = {stop_slip:g} m (small-displacement "
+                                     "kinematics no longer hold)",
+                           "t": float(times[k]), "step": k}
+                if progress:
                     bar.write(f"[{scene.name}] stopped at t = {times[k]:.3f} s: "
-                              + stopped["reason"]) if progress else None
-                    break
+                              + stopped["reason"])
+                break
             if ckp.due(k):
                 checkpoint(k, dyn_wall_before + time.perf_counter() - t_dyn0)
             if max_steps is not None and steps_this_call >= max_steps and k < n_steps:
@@ -294,25 +279,22 @@ def run(scene, outdir=None, resume: bool = False, progress: bool = True,
         bar.close()
     t_dynamic = dyn_wall_before + time.perf_counter() - t_dyn0
     if stopped is not None and snaps["step"][-1] != stopped["step"]:   # D(x) where it stopped
-        snaps["step"].append(stopped["step"])
-        snaps["t"].append(stopped["t"])
-        snaps["D"].append(solver.state.damage.copy())
-        snaps["kappa"].append(solver.state.kappa.copy())
+        snapshot(snaps, stopped["step"], stopped["t"])
 
-    # ---- outputs ----------------------------------------------------------------------
+    # ---- outputs -------------------------------------------------------------------------
     H = hist.arrays()
     t_out = time.perf_counter()
     files = outfiles.write_run_outputs(out, model, scene, gm, H, snaps, solver, u_static,
-                                      plots=plots, heel=heel)
+                                       joints, plots=plots, heel=heel)
     if vtk is not None:
-        files.append(str(vtk.path_hint))
+        files.extend(vtk.files())
     atomic_savez(out / "final_state.npz", u=solver.u, v=solver.v, a=solver.a,
                  x=iface.x, y=iface.y, w=iface.w,
                  **{f"state_{kk}": vv for kk, vv in solver.state.as_dict().items()})
     files.append("final_state.npz")
     t_outputs = time.perf_counter() - t_out
 
-    res = results_from_history(H, snaps, iface.x, w)
+    res = results_from_history(H, snaps, iface.x[base], w[base])
     walls = H["wall"]
     summary = {
         "scene": scene_d,
@@ -320,10 +302,7 @@ def run(scene, outdir=None, resume: bool = False, progress: bool = True,
         "ground_motion": {"label": gm.label, "synthetic": bool(gm.synthetic),
                           "source": gm.source, "dt": gm.dt,
                           "peak_g": list(gm.peak_g()),
-                          "start": scene.ground_motion.start,
-                          # record metadata (event, station, magnitude, PGA, citation) when
-                          # the reader knows it (FEMA P695 / PEER NGA records)
-                          "metadata": dict(getattr(gm, "meta", None) or {})},
+                          "start": scene.ground_motion.start},
         "formulation": FORMULATION,
         "stopped": stopped,
         "crest_point": list(model.crest_point),
@@ -339,9 +318,9 @@ def run(scene, outdir=None, resume: bool = False, progress: bool = True,
                                  "l_Nc": ref_coh.l_Nc, "l_Tc": ref_coh.l_Tc,
                                  "k_normal": k0n, "k_tangential": k0t,
                                  "g_max_over_l_Nc": scene.interface.g_max / ref_coh.l_Nc},
-        "final_parameters": {"sigma_max": law.cohesive.sigma_max,
-                             "tau_max": law.cohesive.tau_max, "l_Nc": law.cohesive.l_Nc,
-                             "friction": None if law.friction is None else law.friction.f},
+        "final_parameters": joints.params()[0],
+        "joints": joint_results(joints, H, snaps, model),
+        "energy": energy_summary(H, energy.keys()),
         "characteristic_times": chars,
         "static": static_info,
         "n_steps": int(n_steps),
@@ -372,3 +351,44 @@ def run(scene, outdir=None, resume: bool = False, progress: bool = True,
     return summary
 
 
+def joint_results(joints, H, snaps, model) -> dict:
+    """summary.json ``joints.<name>``: where the joint is and what happened to it."""
+    out = {}
+    t = H["t"]
+    for name, sl, law in zip(joints.names, joints.slices, joints.laws):
+        x = joints.x[sl]
+        cu = H[f"{name}_crack_length_upstream"] if t.size else np.zeros(0)
+        ct = H[f"{name}_crack_length"] if t.size else np.zeros(0)
+        nd = H[f"{name}_n_debonded"] if t.size else np.zeros(0)
+        first = np.flatnonzero(nd > 0)
+        out[name] = {
+            "elevation": float(joints.y[sl][0]), "x_upstream": float(x[0]),
+            "x_downstream": float(x[-1]), "length": float(joints.w[sl].sum()),
+            "points": int(sl.stop - sl.start), "law": law_parts(joints.tables[joints.names
+                                                                              .index(name)]),
+            "crack_length_upstream_final": float(cu[-1]) if cu.size else 0.0,
+            "crack_length_upstream_max": float(cu.max()) if cu.size else 0.0,
+            "debonded_length_final": float(ct[-1]) if ct.size else 0.0,
+            "debonded_length_max": float(ct.max()) if ct.size else 0.0,
+            "max_D": float(np.max([np.max(D[sl]) for D in snaps["D"]])),
+            "max_D_history": float(H[f"{name}_max_D"].max()) if t.size else 0.0,
+            "t_first_debond": float(t[first[0]]) if first.size else None,
+            "final_parameters": law_parts(joints.tables[joints.names.index(name)]) | {
+                "sigma_max": law.cohesive.sigma_max,
+                "friction": None if law.friction is None else law.friction.f},
+        }
+    return out
+
+
+def energy_summary(H, keys) -> dict:
+    """Final budget terms and the largest balance residual relative to the input work."""
+    if H["t"].size == 0:
+        return {}
+    scale = max(float(np.max(np.abs(H["W_ext"]))), 1e-300)
+    final = {k: float(H[k][-1]) for k in keys}
+    return {"final": final, "max_abs_residual": float(np.max(np.abs(H["residual"]))),
+            "max_residual_over_input_work": float(np.max(np.abs(H["residual"]))) / scale,
+            "input_work_scale": scale,
+            "definition": "residual = W_ext - (E_kin + E_bulk + E_damp + E_stored + E_diss "
+                          "+ E_scaling), "
+                          "from the static state; docs/decisions.md §7.4"}

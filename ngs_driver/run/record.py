@@ -3,48 +3,39 @@ from __future__ import annotations
 
 import numpy as np
 
-# per-step histories (name -> dtype); the CSV column order
+from .joints import crack_measures  # noqa: F401 (the measure lives with the joints)
+
+# per-step histories: the CSV column order. The unprefixed crack/damage columns are the base's
+# (kept under their original names; "base_<key>" columns hold the same values with the lift
+# joints' columns beside them).
 HIST_KEYS = ("step", "t", "crest_ux", "crest_uy", "iterations", "iterations_failed", "cuts",
              "substeps", "n_active", "n_debonded", "crack_length", "crack_length_heel",
              "max_D", "D_heel", "kappa_heel", "size_b", "sigma_max", "wall")
 
 
-
-def crack_measures(state, w) -> tuple[float, float, int]:
-    """(sum of w over debonded points, contiguous debonded length from the heel, n debonded).
-    Points are sorted by x (heel first)."""
-    deb = np.asarray(state.debonded, bool)
-    total = float(np.sum(w[deb]))
-    if deb.size and deb[0]:
-        k = int(np.argmin(deb)) if not deb.all() else deb.size
-        heel = float(np.sum(w[:k]))
-    else:
-        heel = 0.0
-    return total, heel, int(deb.sum())
-
-
-
 class History:
-    def __init__(self):
-        self.cols = {k: [] for k in HIST_KEYS}
+    """Columns of floats appended once per step (``keys`` fixed at construction)."""
+
+    def __init__(self, keys=HIST_KEYS):
+        self.keys = tuple(keys)
+        self.cols = {k: [] for k in self.keys}
 
     def append(self, **kw):
-        for k in HIST_KEYS:
+        for k in self.keys:
             self.cols[k].append(kw[k])
 
     def arrays(self) -> dict:
         return {k: np.asarray(v, dtype=float) for k, v in self.cols.items()}
 
     @classmethod
-    def from_arrays(cls, d):
-        h = cls()
-        for k in HIST_KEYS:
+    def from_arrays(cls, d, keys=HIST_KEYS):
+        h = cls(keys)
+        for k in h.keys:
             h.cols[k] = [float(x) for x in d[f"hist_{k}"]]
         return h
 
     def __len__(self):
         return len(self.cols["t"])
-
 
 
 def snapshot_steps(n_steps: int, count: int) -> list[int]:

@@ -1,46 +1,82 @@
-"""Scene -> interface law(s) and size-scale laws (no NGSolve).
+"""Scene -> interface laws (one per joint) and size-scale laws (no NGSolve).
 
-One validation truth: the law objects of ``interfacelaw`` check their own parameter ranges;
-``scene.py`` builds them at load time (``validate_laws``) so that a bad value is reported with
-its scene key before anything is meshed.
+One validation truth: the parameter classes of ``interfacelaw`` check their own ranges;
+``validate_laws`` builds every joint's law from the scene and re-raises the law's error with
+the scene key (``interface.alpha``, ``joints[0].g_max``, ...), so ``--dry-run`` rejects what
+the law would reject, before anything is meshed.
 """
 from __future__ import annotations
 
-import math
+import re
 
-INTERFACE_LENGTH_A0 = 70.0          # a0 of Eq. 11: the whole (bonded) interface [m]
+__all__ = ["build_law", "build_scaling", "law_parts", "validate_laws", "characteristic_times"]
+
+# the scene key of each law parameter (class.field -> [interface] key)
+_SCENE_KEY = {"CohesiveParams.sigma_max": "sigma_max", "CohesiveParams.tau_max": "tau_max",
+              "CohesiveParams.l_Nc": "G_I", "CohesiveParams.l_Tc": "ratio_lTc_lNc",
+              "CohesiveParams.G_I": "G_I", "CohesiveParams.ratio_lTc_lNc": "ratio_lTc_lNc",
+              "CohesiveParams.lambda_max": "lambda_max", "FrictionParams.f": "friction",
+              "DamageParams.g_max": "g_max", "DamageParams.alpha": "alpha",
+              "DamageParams.beta": "beta", "DamageParams.F_th": "F_th",
+              "DamageParams.form": "damage_form", "DamageParams.t_ref": "t_ref",
+              "ContactParams.kind": "contact"}
 
 
+def _table(obj):
+    """An [interface] table from a scene (its base table) or the table itself."""
+    return obj.interface if hasattr(obj, "interface") else obj
 
-def build_law(scene):
-    """InterfaceLaw of the scene's [interface] table (cohesive + contact + friction + damage)."""
+
+def build_law(tbl):
+    """InterfaceLaw of an [interface] table (or of a scene's base table): cohesive + contact
+    + friction + damage, each part only if the table asks for it."""
     from interfacelaw import (CohesiveParams, ContactParams, DamageParams, FrictionParams,
                               InterfaceLaw)
 
-    i = scene.interface
+    i = _table(tbl)
     coh = CohesiveParams.from_fracture_energy(i.sigma_max, i.tau_max, i.G_I, i.lambda_max,
                                               i.ratio_lTc_lNc)
     con = None if i.contact == "none" else ContactParams(kind=i.contact)
     fri = FrictionParams(f=i.friction) if (con is not None and i.friction > 0) else None
-    dmg = (DamageParams(g_max=i.g_max, alpha=i.alpha, beta=i.beta, F_th=i.F_th,
-                        form=i.damage_form) if i.damage else None)
+    dmg = None
+    if i.damage:
+        kw = dict(g_max=i.g_max, alpha=i.alpha, beta=i.beta, F_th=i.F_th, form=i.damage_form)
+        if getattr(i, "t_ref", None) is not None and i.damage_form == "rate":
+            kw["t_ref"] = i.t_ref
+        dmg = DamageParams(**kw)
     return InterfaceLaw(coh, con, fri, dmg)
 
 
+def validate_laws(scene) -> None:
+    """Build every joint's law and size scaling; a ValueError names the scene key."""
+    for k, (name, tbl) in enumerate(scene.joint_tables()):
+        where = "interface" if name == "base" else f"joints[{k - 1}]"
+        try:
+            law = build_law(tbl)
+            build_scaling(tbl, law)
+        except (ValueError, TypeError) as e:
+            msg = str(e)
+            m = re.search(r"(\w+Params\.\w+)", msg)
+            key = _SCENE_KEY.get(m.group(1)) if m else None
+            if key is not None:
+                raise ValueError(f"{where}.{key} = {getattr(tbl, key, '?')!r}: rejected by the "
+                                 f"interface law: {msg}") from None
+            raise ValueError(f"{where}: rejected by the interface law: {msg}") from None
 
-def build_scaling(scene, law):
-    """SizeScaling with the scene's reference parameters (None if interface.scaling is off)."""
-    if not scene.interface.scaling:
+
+def build_scaling(tbl, law):
+    """SizeScaling with the table's reference parameters (None if scaling is off)."""
+    i = _table(tbl)
+    if not i.scaling:
         return None
     from interfacelaw.scaling import SizeScaling
 
-    f_ref = scene.interface.friction if scene.interface.friction > 0 else 0.3
+    f_ref = i.friction if i.friction > 0 else 0.3
     return SizeScaling(law.cohesive, f_ref=f_ref)
 
 
-
-def law_parts(scene) -> dict:
-    i = scene.interface
+def law_parts(tbl) -> dict:
+    i = _table(tbl)
     return {"cohesive": "Geubelle-Baylor bilinear mixed mode",
             "contact": i.contact,
             "friction": bool(i.contact != "none" and i.friction > 0),
@@ -49,17 +85,13 @@ def law_parts(scene) -> dict:
             "scaling": bool(getattr(i, "scaling", False))}
 
 
-
 def characteristic_times(scene, l_Nc: float) -> dict:
-    """Paper Eq. 11 for the dam concrete: t1 = rho c_L l_Nc/(2 sigma_max), t2 = a0/c_L."""
+    """Paper Eq. 11 for the dam concrete: t1 = rho c_L l_Nc/(2 sigma_max), t2 = a0/c_L, with
+    a0 the (bonded) base width of the scene's section."""
+    from interfacelaw.scaling import characteristic_times as ct
+
     m = scene.materials.dam
-    s = scene.interface.sigma_max
-    try:
-        from interfacelaw.scaling import characteristic_times as ct
-        r = ct(m.E, m.rho, l_Nc, s, INTERFACE_LENGTH_A0)
-        t1, t2, c = float(r.t1), float(r.t2), float(r.c_L)
-    except ImportError:  # pragma: no cover
-        c = math.sqrt(m.E / m.rho)
-        t1, t2 = m.rho * c * l_Nc / (2 * s), INTERFACE_LENGTH_A0 / c
-    return {"t1": t1, "t2": t2, "c_L": c, "a0": INTERFACE_LENGTH_A0, "l_Nc": l_Nc,
+    a0 = scene.section.base_width
+    r = ct(m.E, m.rho, l_Nc, scene.interface.sigma_max, a0)
+    return {"t1": float(r.t1), "t2": float(r.t2), "c_L": float(r.c_L), "a0": a0, "l_Nc": l_Nc,
             "material": "dam concrete", "equation": "paper Eq. 11"}

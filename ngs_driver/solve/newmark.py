@@ -37,6 +37,7 @@ import scipy.linalg as sla
 import scipy.sparse as sp
 import scipy.sparse.linalg as spl
 
+from .joint_laws import initial_stiffness, reference_gap
 from .sparse import SparseFactor
 
 __all__ = ["NewmarkSolver", "StepReport", "SolverError", "SparseFactor"]
@@ -164,9 +165,10 @@ class NewmarkSolver:
 
     # ------------------------------------------------------------------ set-up / parameters
     def _set_k0(self, law):
-        self.k0 = np.array([law.cohesive.k_normal, law.cohesive.k_tangential])
-        self._k0v = np.tile(self.k0, self.npts)
-        self._gref = law.cohesive.lambda_max * law.cohesive.l_Nc * 1e-3 * math.sqrt(self.npts)
+        self.k0p = initial_stiffness(law, self.npts)         # (npts, 2): k_N, k_T per point
+        self.k0 = self.k0p.max(axis=0)
+        self._k0v = self.k0p.ravel()
+        self._gref = reference_gap(law) * 1e-3 * math.sqrt(self.npts)
         self._BtWK0B = (self.BT @ sp.diags(self._k0v * np.repeat(self.w, 2)) @ self.B).tocsr()
 
     def set_law(self, law, refactor: bool = False):
@@ -227,6 +229,8 @@ class NewmarkSolver:
         A = c0 * self.M + c * self.K
         if self.C is not None:
             A = A + (c * c1) * self.C
+        if getattr(self, "ext", None) is not None:     # compressible water (acoustic_newmark)
+            A = A + self.ext.matrix(h)
         return A.tocsr()
 
     def _entry(self, h):
@@ -296,6 +300,8 @@ class NewmarkSolver:
             rhs += al * r_n
         else:
             rhs += f_next
+        if getattr(self, "ext", None) is not None:
+            rhs += self.ext.rhs(h)
         return rhs
 
     # ------------------------------------------------------------------ Newton kernels
@@ -402,8 +408,8 @@ class NewmarkSolver:
             # jacobian_tol per iteration). Other rows by substitution.
             ia_ = ad[0::2] // 2
             D = T[ia_].copy()                                   # (na, 2, 2)
-            D[:, 0, 0] -= self.k0[0]
-            D[:, 1, 1] -= self.k0[1]
+            D[:, 0, 0] -= self.k0p[ia_, 0]
+            D[:, 1, 1] -= self.k0p[ia_, 1]
             strong = np.abs(D).max(axis=(1, 2)) > self.jacobian_tol * self.k0.max()
             ja = ad if strong.all() else self._dof_idx(ia_[strong])
             D = D[strong] * (c * self.w[ia_[strong]])[:, None, None]
@@ -573,6 +579,8 @@ class NewmarkSolver:
         self._phi = phi
         self._active = act
         self.f = np.array(f_next, dtype=float)
+        if h is not None and getattr(self, "ext", None) is not None:
+            self.ext.commit(h)
 
     # ------------------------------------------------------------------ public steps
     def static(self, f) -> StepReport:

@@ -1,0 +1,126 @@
+"""The energy budget of a run, step by step (docs/decisions.md §7.4).
+
+From the static state (t = 0) on, per metre of dam [J/m]:
+
+    W_ext     work of the external loads, trapezoid per step: du . (f_n + f_n+1)/2, with
+              f = f_static - M r a_g(t) (gravity, hydrostatic, the ground motion's inertia)
+    E_kin     1/2 v.M v
+    E_bulk    1/2 u.K u - its static value
+    E_damp    Rayleigh dissipation, du . C (v_n + v_n+1)/2
+    E_stored  per joint, the law's recoverable energy (below) - its static value
+    E_diss    per joint, the law's own dissipated energy (state "dissipated", friction
+              included) - its static value
+    E_scaling energy released by the size-scale updates (paper §2, Eq. 11): a new strength
+              at a fixed gap changes the stored energy without any work; the jump is booked
+              here (stored with the old law minus stored with the new, at the committed gap)
+
+    residual = W_ext - (E_kin + E_bulk + E_damp + E_stored + E_diss + E_scaling)
+
+For average-acceleration Newmark the kinetic, bulk and damping terms obey this identity
+exactly per step (the trapezoid pairs with the scheme); the interface term does not: the
+stored + dissipated energy comes from the law, the trapezoid only approximates the work of
+its traction along the step, so the residual measures the time-integration error of the
+interface work, O(dt^2) where the traction is smooth in time (tests, verification/energy).
+
+Stored energy of a point: the secant law stores 1/2 t.g (cohesive part, Eqs. 2-3 with secant
+unloading; linear contact, whose crack and bond stiffness are equal by default); a point in
+frictional contact stores 1/2 t_T^2 / C_T in its stick spring instead of 1/2 t_T g_T. For the
+"rough" contact law 1/2 t_N g_N is an approximation of the stored closure energy.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = ["EnergyBudget", "stored_energy", "ENERGY_KEYS"]
+
+ENERGY_KEYS = ("W_ext", "E_kin", "E_bulk", "E_damp", "E_stored", "E_diss", "E_scaling",
+               "residual")
+
+
+def stored_energy(law, t, g, state) -> np.ndarray:
+    """Recoverable energy per unit area of each point [J/m^2] (see module doc)."""
+    e = 0.5 * t[:, 0] * g[:, 0]
+    tang = 0.5 * t[:, 1] * g[:, 1]
+    if law.friction is not None:
+        ct = law.friction.penalty if law.friction.penalty is not None \
+            else law.cohesive.k_tangential
+        fr = np.asarray(state.debonded, bool) & (t[:, 0] < 0.0)
+        tang = np.where(fr, 0.5 * t[:, 1] ** 2 / ct, tang)
+    return e + tang
+
+
+class EnergyBudget:
+    """Accumulates the budget; ``start`` at the static state, ``step`` after each step."""
+
+    def __init__(self, K, M, C, w, joints):
+        self.K, self.M, self.C, self.w = K, M, C, w
+        self.joints = joints              # run.joints.JointSet (names, slices, laws)
+        self.rows = []
+
+    def _levels(self, u, v, t, g, state):
+        stored = [float(np.dot(self.w[sl], stored_energy(law, t[sl], g[sl], state.take(sl))))
+                  for law, sl in zip(self.joints.laws, self.joints.slices)]
+        diss = [float(np.dot(self.w[sl], state.dissipated[sl])) for sl in self.joints.slices]
+        return (0.5 * float(v @ (self.M @ v)), 0.5 * float(u @ (self.K @ u)), stored, diss)
+
+    def start(self, u, v, f, t, g, state):
+        self._prev = (u.copy(), v.copy(), f.copy())
+        self._ref = self._levels(u, v, t, g, state)
+        self.W_ext = 0.0
+        self.E_damp = 0.0
+        self.E_scaling = 0.0
+
+    def law_update(self, old_laws, g, state):
+        """Book the stored-energy jump of a size-scale update (call after the laws changed,
+        before the next step; ``old_laws`` the laws before)."""
+        for old, new, sl in zip(old_laws, self.joints.laws, self.joints.slices):
+            if old is new:
+                continue
+            st = state.take(sl)
+            gg = np.ascontiguousarray(g[sl])
+            t_old = old.evaluate(gg, st)[0]
+            t_new = new.evaluate(gg, st)[0]
+            self.E_scaling += float(np.dot(self.w[sl], stored_energy(old, t_old, gg, st)
+                                           - stored_energy(new, t_new, gg, st)))
+
+    def step(self, u, v, f, t, g, state) -> dict:
+        u0, v0, f0 = self._prev
+        du = u - u0
+        self.W_ext += 0.5 * float(du @ (f0 + f))
+        if self.C is not None:
+            self.E_damp += 0.5 * float(du @ (self.C @ (v0 + v)))
+        self._prev = (u.copy(), v.copy(), f.copy())
+        kin, bulk, stored, diss = self._levels(u, v, t, g, state)
+        k0, b0, s0, d0 = self._ref
+        row = {"W_ext": self.W_ext, "E_kin": kin - k0, "E_bulk": bulk - b0,
+               "E_damp": self.E_damp}
+        for name, s, s_0, d, d_0 in zip(self.joints.names, stored, s0, diss, d0):
+            row[f"{name}_E_stored"] = s - s_0
+            row[f"{name}_E_diss"] = d - d_0
+        row["E_stored"] = sum(stored) - sum(s0)
+        row["E_diss"] = sum(diss) - sum(d0)
+        row["E_scaling"] = self.E_scaling
+        row["residual"] = row["W_ext"] - (row["E_kin"] + row["E_bulk"] + row["E_damp"]
+                                          + row["E_stored"] + row["E_diss"] + self.E_scaling)
+        return row
+
+    def keys(self) -> list[str]:
+        return list(ENERGY_KEYS[:-1]) + [f"{n}_{k}" for n in self.joints.names
+                                         for k in ("E_stored", "E_diss")] + ["residual"]
+
+    def state(self) -> dict:
+        """What a checkpoint must keep to continue the budget bitwise."""
+        u0, v0, f0 = self._prev
+        k0, b0, s0, d0 = self._ref
+        return {"energy_prev_u": u0, "energy_prev_v": v0, "energy_prev_f": f0,
+                "energy_ref": np.array([k0, b0, *s0, *d0]),
+                "energy_acc": np.array([self.W_ext, self.E_damp, self.E_scaling])}
+
+    def restore(self, arrs):
+        self._prev = (arrs["energy_prev_u"].copy(), arrs["energy_prev_v"].copy(),
+                      arrs["energy_prev_f"].copy())
+        r = arrs["energy_ref"]
+        n = len(self.joints.names)
+        self._ref = (float(r[0]), float(r[1]), [float(x) for x in r[2:2 + n]],
+                     [float(x) for x in r[2 + n:2 + 2 * n]])
+        self.W_ext, self.E_damp, self.E_scaling = (float(x) for x in arrs["energy_acc"])
