@@ -138,8 +138,9 @@ class Interface:
     contact: str = _f("linear", choices=("linear", "rough", "none"))
     scaling: bool = _f(True)
     damage: bool = _f(True, doc="false: a law without the damage part (its kernel omits it)")
-    damage_form: str = _f("paper", doc="'paper' (Eq. 7 as written), 'objective' (step-size-"
-                          "objective variant), or a form the law offers")
+    damage_form: str = _f("paper", doc="'paper' (Eq. 7 as written, per step), 'objective' "
+                          "(step-size-objective variant) or 'rate' (Eq. 7 as a rate, needs t_ref)")
+    t_ref: float = _f(1.0, doc="reference time of the 'rate' damage form [s]")
 
 
 @dataclass(frozen=True)

@@ -78,8 +78,9 @@ class EnergyBudget:
                 continue
             st = state.take(sl)
             gg = np.ascontiguousarray(g[sl])
-            t_old = old.evaluate(gg, st)[0]
-            t_new = new.evaluate(gg, st)[0]
+            # at the committed gap nothing grows: dt (rate-form damage) plays no role
+            t_old = old.evaluate(gg, st, dt=1.0)[0]
+            t_new = new.evaluate(gg, st, dt=1.0)[0]
             self.E_scaling += float(np.dot(self.w[sl], stored_energy(old, t_old, gg, st)
                                            - stored_energy(new, t_new, gg, st)))
 

@@ -43,6 +43,11 @@ from .sparse import SparseFactor
 __all__ = ["NewmarkSolver", "StepReport", "SolverError", "SparseFactor"]
 
 
+# duration given to rate-dependent laws for the static solve: the dead load and the reservoir
+# build up over months to years (impounding); one year [s]
+STATIC_DURATION = 3.15e7
+
+
 class SolverError(RuntimeError):
     """A step could not be converged even with the minimum step size (state is unchanged)."""
 
@@ -180,8 +185,11 @@ class NewmarkSolver:
             self._cache.clear()
             self._static_cache = None
 
-    def set_dt(self, dt):
-        self.dt = float(dt)
+    def _law_dt(self, h):
+        """The step's duration for rate-dependent laws (damage form "rate"); the static
+        solve (h None) stands for the slow build-up of dead load and reservoir, taken as
+        STATIC_DURATION (docs/decisions.md §6)."""
+        return STATIC_DURATION if h is None else h
 
     def set_initial(self, u=None, v=None, a=None, f=None):
         """Set the committed fields (e.g. after a restart); the interface traction and gap are
@@ -195,7 +203,7 @@ class NewmarkSolver:
         if f is not None:
             self.f = np.array(f, dtype=float)
         g = (self.B @ self.u).reshape(-1, 2)
-        t, _, _ = self.law.evaluate(np.ascontiguousarray(g), self.state)
+        t, _, _ = self.law.evaluate(np.ascontiguousarray(g), self.state, dt=self.dt)
         self.g, self.t = g, t
         self._phi = (t.ravel() - self._k0v * g.ravel())
         self._active = self._phi_mask(self._phi, g.ravel())
@@ -374,7 +382,7 @@ class NewmarkSolver:
         gscale = max(np.linalg.norm(g_lin), self._gref)
 
         def resid(g, act, ad):
-            t, T, new = law.evaluate(g.reshape(-1, 2), state)
+            t, T, new = law.evaluate(g.reshape(-1, 2), state, dt=self._law_dt(h))
             phi = t.ravel() - k0v * g
             newly = ~act & self._phi_mask(phi, g)
             if newly.any():
@@ -509,7 +517,7 @@ class NewmarkSolver:
 
         def resid(u):
             g = self.B @ u
-            t, T, new = law.evaluate(g.reshape(-1, 2), state)
+            t, T, new = law.evaluate(g.reshape(-1, 2), state, dt=self._law_dt(h))
             r = rhs - A_lin @ u - c * (self.BT @ (wd * t.ravel()))
             return g, t, T, new, r
 
