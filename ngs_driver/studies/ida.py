@@ -110,6 +110,10 @@ def _check_inputs(suite, records, components, im, levels, workers, scheduler):
     if len(set(levels)) != len(levels):
         raise StudyInputError(f"--levels {levels}: a level is repeated")
     comps = list(components or fema.COMPONENTS)
+    if len(set(comps)) != len(comps):
+        raise StudyInputError(f"--components {comps}: a component is repeated")
+    if records is not None and len(set(records)) != len(records):
+        raise StudyInputError(f"--records {list(records)}: a record is repeated")
     for c in comps:
         if c not in fema.COMPONENTS:
             raise StudyInputError(f"--components: component {c!r} does not exist; allowed: "
