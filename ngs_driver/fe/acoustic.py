@@ -45,7 +45,7 @@ BOUNDARIES = ("free_surface", "reservoir_bottom", "far_end")
 # ---------------------------------------------------------------------------------------------
 # meshes
 # ---------------------------------------------------------------------------------------------
-def _water_geometry(face_pts, L, h_max, grading=0.3):
+def _water_geometry(face_pts, L, h_max, grading=0.5):
     """Netgen geometry of the water polygon; face_pts from the heel up to the water line, each
     face edge one segment (maxh = its length, so netgen keeps the dam's face vertices)."""
     from netgen.geom2d import SplineGeometry
@@ -54,7 +54,8 @@ def _water_geometry(face_pts, L, h_max, grading=0.3):
     fp = [(float(x), float(y)) for x, y in face_pts]
     H = fp[-1][1]
     seg = [math.dist(a, b) for a, b in zip(fp[:-1], fp[1:])]
-    hp = [seg[0]] + [min(a, b) for a, b in zip(seg[:-1], seg[1:])] + [seg[-1]]
+    # sizes a bit above the edge lengths: netgen then keeps every face edge whole
+    hp = [1.5 * h for h in [seg[0]] + [max(a, b) for a, b in zip(seg[:-1], seg[1:])] + [seg[-1]]]
     pf = [geo.AppendPoint(x, y, maxh=h) for (x, y), h in zip(fp, hp)]
     xs = -float(L)
     ps = geo.AppendPoint(xs, H)
@@ -63,11 +64,14 @@ def _water_geometry(face_pts, L, h_max, grading=0.3):
     # counter-clockwise with the water on the left: bottom, face, surface, far end
     geo.Append(["line", pb, pf[0]], leftdomain=water, rightdomain=0, bc="reservoir_bottom")
     for a, b, s in zip(pf[:-1], pf[1:], seg):
-        geo.Append(["line", a, b], leftdomain=water, rightdomain=0, bc=FACE, maxh=s)
+        geo.Append(["line", a, b], leftdomain=water, rightdomain=0, bc=FACE, maxh=1.5 * s)
     geo.Append(["line", pf[-1], ps], leftdomain=water, rightdomain=0, bc="free_surface")
     geo.Append(["line", ps, pb], leftdomain=water, rightdomain=0, bc="far_end")
     geo.SetMaterial(water, WATER)
-    return geo.GenerateMesh(maxh=h_max, grading=grading)
+    # the global size may not be below a face edge, or netgen would split it
+    # segmentsperedge < 1: netgen otherwise splits some face edges (measured on the smoke mesh)
+    return geo.GenerateMesh(maxh=max(h_max, 1.5 * max(seg)), grading=grading,
+                            segmentsperedge=0.1)
 
 
 def rectangle_water_mesh(H: float, L: float, h_face: float, h_max: float, grading=0.3):

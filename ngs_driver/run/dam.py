@@ -110,6 +110,13 @@ def run(scene, outdir=None, resume: bool = False, progress: bool = True,
     times = ts.dt * np.arange(n_steps + 1)
     ax, ay = gm.at(scene.ground_motion.start + times)
     Mrx, Mry = model.M @ model.r_x, model.M @ model.r_y
+    rres = None
+    if getattr(model, "reservoir", None) is not None:     # hydrodynamics (fe/reservoir.py)
+        from ..out.reservoir_outputs import ReservoirRun
+        Mrx, Mry = model.reservoir.seismic_vectors(Mrx, Mry)
+        rres = ReservoirRun.create(model, scene, solver, times, ax, ay, resume)
+        if plots and scene.output.vtk_every > 0:
+            rres.enable_vtk(out)
     f_static = model.f_gravity + model.f_water
     cx, cy = model.crest_dofs
     chars = characteristic_times(scene, ref_coh.l_Nc)
@@ -233,6 +240,8 @@ def run(scene, outdir=None, resume: bool = False, progress: bool = True,
                 raise SolverError(f"{scene.name}: step {k} (t = {times[k]:.4f} s): {e}") \
                     from None
             st = solver.state
+            if rres is not None:
+                rres.record(k, times[k])
             jm = joints.measures(st, solver.g)
             en = energy.step(solver.u, solver.v, f_k, solver.t, solver.g, st)
             hist.append(step=k, t=times[k], crest_ux=solver.u[cx], crest_uy=solver.u[cy],
@@ -292,6 +301,8 @@ def run(scene, outdir=None, resume: bool = False, progress: bool = True,
                  x=iface.x, y=iface.y, w=iface.w,
                  **{f"state_{kk}": vv for kk, vv in solver.state.as_dict().items()})
     files.append("final_state.npz")
+    if rres is not None:
+        files.extend(rres.write(out, plots))
     t_outputs = time.perf_counter() - t_out
 
     res = results_from_history(H, snaps, iface.x[base], w[base])
@@ -342,6 +353,8 @@ def run(scene, outdir=None, resume: bool = False, progress: bool = True,
         "environment": environment_info(),
         "files": sorted(set(files)),
     }
+    if rres is not None:
+        summary["reservoir"] = rres.summary()
     atomic_write_json(summary_path, summary)     # LAST: the run is complete
     for p in [ckp.meta_path, *out.glob("checkpoint_*.npz")]:   # nothing left to resume
         if p.exists():

@@ -1,0 +1,163 @@
+"""Reservoir outputs of a run (issue #12): hydrodynamic pressure on the upstream face at a few
+elevations over time (``reservoir_pressure.csv`` + ``reservoir_pressure.png``), the hydrodynamic
+force resultant (in the CSV), and VTK of p (``vtk/water_*.vtu``) when VTK output is on.
+
+``ReservoirRun.create(model, scene, solver, times, ax, ay)`` returns None when the scene has no
+hydrodynamic reservoir.  For compressible acoustic water it attaches the ``FluidStepper`` to the
+solver (the pressure then lives in the solver's steps); for incompressible water and Westergaard
+the pressure is recovered from the accelerations.
+"""
+from __future__ import annotations
+
+import csv
+import pathlib
+
+import numpy as np
+
+FRACTIONS = (0.0, 0.25, 0.5, 0.75, 0.9)      # elevations / level at which p is written
+
+
+class ReservoirRun:
+    def __init__(self, model, scene, solver, times, ax, ay, resume=False):
+        self.model, self.scene, self.solver = model, scene, solver
+        self.res = model.reservoir
+        self.times, self.ax, self.ay = times, ax, ay
+        self.rows = {"t": [], "Fx": [], "Fy": []}
+        self.stepper = None
+        self.ac = self.res.acoustic
+        self.level = self.res.level
+        self.ys = [f * self.level for f in FRACTIONS]
+        for y in self.ys:
+            self.rows[f"p_y{y:.2f}"] = []
+        if self.ac is not None and not self.ac.incompressible:
+            if resume:
+                raise ValueError("--resume with reservoir.model = 'acoustic' and compressible "
+                                 "water: the water state is not checkpointed; allowed: a fresh "
+                                 "run, or reservoir.compressible = false")
+            from ..fe.acoustic_newmark import FluidStepper
+            self.stepper = FluidStepper(self.ac, solver, self.ground)
+        if self.ac is not None:
+            self._pts = self.ac.face_stations(FRACTIONS)
+        self._vtk = None
+
+    @classmethod
+    def create(cls, model, scene, solver, times, ax, ay, resume=False):
+        if getattr(model, "reservoir", None) is None:
+            return None
+        return cls(model, scene, solver, times, ax, ay, resume)
+
+    def ground(self, t):
+        """Ground acceleration at time t (linear between the record samples, as the loads)."""
+        return (float(np.interp(t, self.times, self.ax)), float(np.interp(t, self.times, self.ay)))
+
+    # ------------------------------------------------------------------------------------
+    def pressure(self):
+        """Hydrodynamic pressure (free water DOFs) of the committed state, or None."""
+        s = self.solver
+        if self.stepper is not None:
+            return self.stepper.p
+        if self.ac is not None:
+            agx, agy = self.ground(s.time)
+            return self.ac.pressure_incompressible(s.a, agx, agy)
+        return None
+
+    def record(self, k, t):
+        s = self.solver
+        agx, agy = self.ground(s.time)
+        self.rows["t"].append(float(t))
+        p = self.pressure()
+        if p is not None:
+            fx, fy = self.ac.face_force(p)
+            vals = self._station_values(p)
+        else:                                   # Westergaard: p = -m(y) a_n,total on the face
+            m = self.model
+            acc = s.a + m.r_x * agx + m.r_y * agy
+            f = -(self.res.added_mass @ acc)
+            fx, fy = float(m.r_x @ f), float(m.r_y @ f)
+            H = self.level
+            vals = [-7.0 / 8.0 * self.res.water_density * np.sqrt(H * (H - y))
+                    * (self._face_ax(acc, y)) for y in self.ys]
+        self.rows["Fx"].append(fx)
+        self.rows["Fy"].append(fy)
+        for y, v in zip(self.ys, vals):
+            self.rows[f"p_y{y:.2f}"].append(float(v))
+        sc = self.scene
+        if (p is not None and sc.output.vtk_every > 0 and k % sc.output.vtk_every == 0
+                and getattr(self, "_vtk_dir", None) is not None):
+            self._write_vtk(p, t)
+
+    def _station_values(self, p):
+        from ..fe.acoustic import pressure_at
+        # stations on the face: evaluate 1 mm inside the water (the point search may return
+        # the dam's element on the face itself, where the water field is not defined)
+        pts = [(x - 1e-3, max(y, 1e-3)) for x, y in self._pts]
+        return list(pressure_at(self.ac.W, p, pts))
+
+    def _face_ax(self, acc, y):
+        """x-acceleration of the dam at the face point of elevation y."""
+        from ..fe.acoustic import face_chain
+        m = self.model
+        if not hasattr(self, "_chain"):
+            self._chain = face_chain(m.mesh, self.level)
+        x = float(np.interp(y, [c[2] for c in self._chain], [c[1] for c in self._chain]))
+        cf = m.displacement_cf(m.to_gridfunction(acc))
+        return float(cf(m.mesh(x + 1e-6, min(y, self.level - 1e-6)))[0])
+
+    def enable_vtk(self, out):
+        self._vtk_dir = pathlib.Path(out) / "vtk"
+        self._vtk_dir.mkdir(parents=True, exist_ok=True)
+        self._vtk_files = []
+
+    def _write_vtk(self, p, t):
+        import ngsolve as ngs
+        W = self.ac.W
+        gf = ngs.GridFunction(W.Vp)
+        v = np.zeros(W.Vp.ndof)
+        v[W.free] = p
+        gf.vec.FV().NumPy()[:] = v
+        name = self._vtk_dir / f"water_{len(self._vtk_files):05d}"
+        ngs.VTKOutput(W.Vp.mesh, coefs=[gf], names=["p"], filename=str(name),
+                      subdivision=0).Do()             # p = 0 outside the water
+        self._vtk_files.append(name.name + ".vtu")
+
+    # ------------------------------------------------------------------------------------
+    def write(self, out, plots=True) -> list[str]:
+        out = pathlib.Path(out)
+        keys = list(self.rows)
+        with open(out / "reservoir_pressure.csv", "w", newline="") as fh:
+            w = csv.writer(fh)
+            w.writerow([k if k in ("t",) else (k + "_Pa" if k.startswith("p_") else k + "_N_per_m")
+                        for k in keys])
+            for i in range(len(self.rows["t"])):
+                w.writerow([f"{self.rows[k][i]:.9g}" for k in keys])
+        files = ["reservoir_pressure.csv"]
+        if plots and self.rows["t"]:
+            import matplotlib
+            matplotlib.use("Agg")
+            import matplotlib.pyplot as plt
+            fig, (a1, a2) = plt.subplots(2, 1, figsize=(8, 6), sharex=True)
+            t = np.asarray(self.rows["t"])
+            for y in self.ys:
+                a1.plot(t, np.asarray(self.rows[f"p_y{y:.2f}"]) / 1e3, label=f"y = {y:.1f} m")
+            a1.set_ylabel("hydrodynamic p [kPa]")
+            a1.legend(fontsize=8, ncol=3)
+            a1.set_title(f"reservoir: {self.res.kind}"
+                         + (" (incompressible)" if self.ac is not None and self.ac.incompressible
+                            else "") + f", level {self.level:g} m")
+            a2.plot(t, np.asarray(self.rows["Fx"]) / 1e6)
+            a2.set_ylabel("force on the face Fx [MN/m]")
+            a2.set_xlabel("t [s]")
+            fig.tight_layout()
+            fig.savefig(out / "reservoir_pressure.png", dpi=120)
+            plt.close(fig)
+            files.append("reservoir_pressure.png")
+        files += [f"vtk/{f}" for f in getattr(self, "_vtk_files", [])]
+        return files
+
+    def summary(self) -> dict:
+        Fx = np.asarray(self.rows["Fx"])
+        d = dict(self.res.info)
+        d.update({"kind": self.res.kind, "max_abs_force_x_N_per_m":
+                  float(np.abs(Fx).max()) if Fx.size else None,
+                  "files": ["reservoir_pressure.csv", "reservoir_pressure.png"]})
+        return d

@@ -1,0 +1,79 @@
+"""Reservoir in the time stepping (issue #12): the coupled dam-water system through the condensed
+Newmark solver conserves energy; a run with the acoustic reservoir writes the pressure outputs."""
+import csv
+
+import numpy as np
+import pytest
+
+pytest.importorskip("ngsolve")
+
+from interfacelaw import CohesiveParams, ContactParams, InterfaceLaw  # noqa: E402
+from ngs_driver.fe.acoustic_newmark import FluidStepper  # noqa: E402
+from ngs_driver.fe.model import build_from_scene  # noqa: E402
+from ngs_driver.scene import load_scene  # noqa: E402
+from ngs_driver.solve.newmark import NewmarkSolver  # noqa: E402
+
+COARSE = ["mesh.h_coarse=6", "mesh.h_interface=6", "mesh.h_heel=2", "reservoir.h_max=12"]
+
+
+def _free_vibration(far_end, n_steps):
+    sc = load_scene("koyna_classic", ["reservoir.model=acoustic", f"reservoir.far_end={far_end}"]
+                    + COARSE)
+    md = build_from_scene(sc)
+    ac = md.reservoir.acoustic
+    # a bonded interface that stays on its elastic branch (as tests/test_solver.py)
+    law = InterfaceLaw(CohesiveParams.from_fracture_energy(3e9, 3e9, 3e6, 0.2),
+                       ContactParams("linear"))
+    s = NewmarkSolver(md.K, md.M, None, md.interface.B, md.interface.w, law, dt=2e-3)
+    fl = FluidStepper(ac, s, lambda t: (0.0, 0.0))
+    s.static(md.f_water)                    # released from the static deflection of the water
+    zero = np.zeros_like(s.u)
+    s.set_initial(u=s.u.copy(), v=zero, f=zero)
+    s.initial_acceleration(zero)
+    W, pi, p_prev = ac.W, np.zeros(ac.W.free.size), np.zeros(ac.W.free.size)
+
+    def energy():
+        return (0.5 * s.v @ (md.M @ s.v) + 0.5 * s.u @ (md.K @ s.u)
+                + 0.5 * np.sum(s.w[:, None] * s.t * s.g)
+                + 0.5 / ac.rho * (fl.p @ (W.G @ fl.p) + pi @ (W.H @ pi)))
+    E = [energy()]
+    for _ in range(n_steps):
+        s.step(zero)
+        assert s._active.sum() == 0
+        pi = pi + 0.5 * s.dt * (p_prev + fl.p)      # pi = int p dt (trapezoidal, as Newmark)
+        p_prev = fl.p.copy()
+        E.append(energy())
+    return np.array(E), fl
+
+
+def test_coupled_free_vibration_conserves_energy():
+    """Undamped dam + compressible water in a closed basin (rigid bottom, rigid far end),
+    average acceleration: E = 1/2 v M v + 1/2 u K u + interface + 1/(2 rho) (p G p + pi H pi)
+    is conserved to round-off (measured 5e-14 over 300 steps; tolerance 1e-10, a wrong sign or
+    coefficient of the coupling gives > 1e-3) while the water holds a good share of it."""
+    E, fl = _free_vibration("rigid", 300)
+    assert np.abs(E - E[0]).max() <= 1e-10 * E[0]
+    assert np.abs(fl.p).max() > 1e3                 # the water really takes part (kPa)
+
+
+def test_radiation_far_end_takes_energy_out_after_the_travel_time():
+    """Radiation far end 300 m away: no energy leaves before the first wave arrives (300 m /
+    1440 m/s = 0.21 s = 104 steps; up to step 50 constant to 1e-9), afterwards it decreases."""
+    E, _ = _free_vibration("radiation", 150)
+    assert np.abs(E[:51] - E[0]).max() <= 1e-9 * E[0]
+    assert E[-1] < (1 - 1e-4) * E[0]
+    assert np.all(np.diff(E) <= 1e-10 * E[0])
+
+
+def test_acoustic_run_writes_pressure_outputs(tmp_path):
+    """The smoke scene with the compressible acoustic reservoir runs and writes the pressure
+    CSV (5 elevations + force), its figure and the summary entry."""
+    from ngs_driver.run.dam import run
+    sc = load_scene("koyna_smoke", ["reservoir.model=acoustic", "time.duration=0.02"])
+    s = run(sc, tmp_path, progress=False, plots=True)
+    assert (tmp_path / "reservoir_pressure.png").exists()
+    rows = list(csv.reader(open(tmp_path / "reservoir_pressure.csv")))
+    assert rows[0][:3] == ["t", "Fx_N_per_m", "Fy_N_per_m"] and len(rows[0]) == 8
+    assert len(rows) == 1 + 10
+    assert any(abs(float(v)) > 0 for v in rows[-1][1:])
+    assert s["reservoir"]["model"] == "acoustic" and not s["reservoir"]["incompressible"]
