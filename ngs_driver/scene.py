@@ -144,6 +144,25 @@ class Interface:
 
 
 @dataclass(frozen=True)
+class Uplift:
+    """[uplift] pore pressure on the joints (issue #13; docs/decisions.md "Safety"). A joint's
+    own ``uplift = {...}`` table in [[joints]] overrides keys of the scene-wide one."""
+    model: str = _f("none", choices=("none", "linear", "drains"),
+                    doc="none; linear (headwater at the upstream end to tailwater at the "
+                        "downstream end); drains (to the drain pressure at drain_x, then to "
+                        "tailwater) -- USACE EM 1110-2-2100 / FERC ch. 3")
+    tailwater: float = _f(0.0, lo=0.0, hi=1e4, doc="m above the base")
+    drain_x: float = _f(0.0, lo=0.0, hi=1e4,
+                        doc="drain line, m from the joint's upstream end (model = drains)")
+    drain_efficiency: float = _f(0.5, lo=0.0, hi=1.0, doc="E in [0, 1]; drain-line head = tail + (1 - E) (head "
+                                          "- tail) (L - drain_x)/L")
+    in_crack: str = _f("unchanged", choices=("unchanged", "zero", "full_headwater"),
+                       doc="pressure in the crack: unchanged (pre-earthquake distribution, "
+                           "USACE/FERC), zero (USBR), full_headwater (ICOLD 1986; the static "
+                           "cracked-base drawing)")
+
+
+@dataclass(frozen=True)
 class Joint:
     """A lift joint: a horizontal cut through the dam at ``elevation`` with its own law (every
     [interface] key may be given here; the others inherit [interface])."""
@@ -153,6 +172,7 @@ class Joint:
     h_joint: float = _f(0.0, lo=0.0, hi=50.0,
                         doc="element size away from the ends [m]; 0: mesh.h_interface")
     interface: Interface = field(default_factory=Interface)
+    uplift: Uplift = field(default_factory=Uplift)
 
 
 @dataclass(frozen=True)
@@ -209,9 +229,14 @@ class Scene:
     output: Output = field(default_factory=Output)
     solver: Solver = field(default_factory=Solver)
     reservoir: Reservoir = field(default_factory=Reservoir)
+    uplift: Uplift = field(default_factory=Uplift)
 
     def to_dict(self) -> dict:
         return _to_plain(dataclasses.asdict(self))
+
+    def uplift_tables(self) -> list:
+        """[(name, Uplift)] for every joint, the base first (each joint's own table)."""
+        return [("base", self.uplift)] + [(j.name, j.uplift) for j in self.joints]
 
     @property
     def section(self):
@@ -362,7 +387,8 @@ def _build(cls, raw: dict, path: str):
         if dataclasses.is_dataclass(typ):
             kw[name] = _build(typ, val, p)
         elif cls is Scene and name == "joints":
-            kw[name] = _build_joints(val, raw.get("interface", {}), p)
+            kw[name] = _build_joints(val, raw.get("interface", {}), p,
+                                     raw.get("uplift", {}))
         elif cls is Geometry and name == "profile":
             kw[name] = _profile_value(val, p)
         elif typ is tuple:
@@ -405,18 +431,18 @@ def _profile_value(val, path):
     return tuple((float(a), float(b)) for a, b in val)
 
 
-def _build_joints(val, raw_interface, path):
+def _build_joints(val, raw_interface, path, raw_uplift=None):
     if not isinstance(val, (list, tuple)):
         raise ValueError(f"{path} = {val!r}: wrong type, expected an array of tables "
                          "([[joints]])")
-    keys_j = {f.name for f in dataclasses.fields(Joint)} - {"interface"}
+    keys_j = {f.name for f in dataclasses.fields(Joint)} - {"interface", "uplift"}
     keys_i = {f.name for f in dataclasses.fields(Interface)}
     out = []
     for i, t in enumerate(val):
         p = f"{path}[{i}]"
         if not isinstance(t, dict):
             raise ValueError(f"{p} = {t!r}: wrong type, expected a table")
-        unknown = sorted(set(t) - keys_j - keys_i - {"interface"})
+        unknown = sorted(set(t) - keys_j - keys_i - {"interface", "uplift"})
         if unknown:
             raise ValueError(f"{p}.{unknown[0]} = {t[unknown[0]]!r}: unknown key; allowed: "
                              f"{sorted(keys_j)} and every [interface] key {sorted(keys_i)}")
@@ -428,6 +454,13 @@ def _build_joints(val, raw_interface, path):
         if isinstance(t.get("interface"), dict):
             law.update(t["interface"])
         own["interface"] = law
+        up = dict(raw_uplift) if isinstance(raw_uplift, dict) else {}
+        if "uplift" in t:
+            if not isinstance(t["uplift"], dict):
+                raise ValueError(f"{p}.uplift = {t['uplift']!r}: wrong type, expected a table "
+                                 "of [uplift] keys")
+            up.update(t["uplift"])
+        own["uplift"] = up
         j = _build(Joint, own, p)
         if not j.name or set(j.name) - JOINT_NAME_CHARS or j.name == "base":
             raise ValueError(f"{p}.name = {j.name!r}: not allowed; allowed: lower-case letters, "

@@ -131,6 +131,17 @@ SCENES = [
      r"reservoir.level = 0.0 with reservoir.model = 'westergaard': no water"),
     (["reservoir.far_end=open"], r"reservoir.far_end = 'open': not allowed"),
     (["reservoir.model=potential"], r"reservoir.model = 'potential': not allowed"),
+    # [uplift] and the foundation models (issue #13)
+    (["uplift.model=drains", "uplift.drain_x=80"],
+     r"uplift.drain_x = 80.0: the drain line is outside the base; allowed: \(0, 70\) m"),
+    (["joints=[{name='neck', elevation=66.5, uplift={model='drains', drain_x=30.0}}]"],
+     r"joints\[0\].uplift.drain_x = 30.0: the drain line is outside the joint 'neck'"),
+    (["uplift.drain_efficiency=1.5"],
+     r"uplift.drain_efficiency = 1.5: out of range, allowed \[0.0, 1.0\]"),
+    (["uplift.drain_efficiency=-0.1"], r"uplift.drain_efficiency = -0.1: out of range"),
+    (["uplift.tailwater=95"],
+     r"uplift.tailwater = 95.0: above the headwater reservoir.level = 92 m; allowed: \[0, 92\]"),
+    (["uplift.in_crack=half"], r"uplift.in_crack = 'half': not allowed"),
 ]
 
 

@@ -29,10 +29,12 @@ import numpy as np
 
 from ..out.files import atomic_savez, atomic_write_json, environment_info
 from ..setup import FORMULATION, characteristic_times, law_parts, validate
+from ..solve.joint_laws import initial_stiffness
 from .checkpoint import Checkpointer
 from .energy import EnergyBudget
 from .joints import JointSet
 from .record import HIST_KEYS, History, results_from_history, snapshot_steps
+from .safety import Safety
 
 
 class RunInterrupted(RuntimeError):
@@ -83,6 +85,8 @@ def run(scene, outdir=None, resume: bool = False, progress: bool = True,
     iface = model.interface
     w = iface.w
     joints = JointSet(scene, iface)
+    safety = Safety(scene, model, joints)      # uplift, forces, FS (issue #13)
+    safety.set_dof_masks(model)
     base = joints.slices[0]
     ref_coh = joints.reference[0].cohesive
     k0n, k0t = joints.laws[0].cohesive.k_normal, joints.laws[0].cohesive.k_tangential
@@ -90,7 +94,8 @@ def run(scene, outdir=None, resume: bool = False, progress: bool = True,
     assert abs(kn_s - k0n) <= 1e-9 * k0n and abs(kt_s - k0t) <= 1e-9 * k0t
 
     t = time.perf_counter()
-    modal = modal_analysis(model, 6, k0n, k0t)
+    k0p = initial_stiffness(joints.solver_law(), iface.npts)    # each joint its own k0
+    modal = modal_analysis(model, 6, k0p[:, 0], k0p[:, 1])
     d = scene.damping
     damp = damping_from_modes(modal, d.ratio, d.modes, d.frequencies or None)
     # ARPACK's random start vector changes the last bits of the eigenvalues from call to call:
@@ -117,12 +122,14 @@ def run(scene, outdir=None, resume: bool = False, progress: bool = True,
         rres = ReservoirRun.create(model, scene, solver, times, ax, ay, resume)
         if plots and scene.output.vtk_every > 0:
             rres.enable_vtk(out)
-    f_static = model.f_gravity + model.f_water
+    f_base = model.f_gravity + model.f_water + safety.extra_static_load(model.nfree)
+    f_static = f_base                          # + the static uplift, once it is known
     cx, cy = model.crest_dofs
     chars = characteristic_times(scene, ref_coh.l_Nc)
     energy = EnergyBudget(model.K, model.M, C, w, joints)
     # the wall time stays the last column (everything before it is deterministic)
-    hist_keys = list(HIST_KEYS[:-1]) + joints.history_keys() + energy.keys() + ["wall"]
+    hist_keys = (list(HIST_KEYS[:-1]) + joints.history_keys() + safety.history_keys()
+                 + energy.keys() + ["wall"])
     if progress:
         log(f"[{scene.name}] nfree {model.nfree}, joints {', '.join(joints.names)} "
             f"({iface.npts} interface points), f1 = {modal.frequencies_hz[0]:.3f} Hz, a0 = "
@@ -152,7 +159,7 @@ def run(scene, outdir=None, resume: bool = False, progress: bool = True,
     # ---- static state or restart -----------------------------------------------------------
     if ck is None:
         t = time.perf_counter()
-        rep = solver.static(f_static)
+        rep, f_static = safety.solve_static(solver, f_base)
         t_static = time.perf_counter() - t
         solver.initial_acceleration(f_static - Mrx * ax[0] - Mry * ay[0])
         st = solver.state
@@ -168,6 +175,7 @@ def run(scene, outdir=None, resume: bool = False, progress: bool = True,
             "max_kappa": float(st.kappa.max()),
             "max_D": float(st.damage.max()), "D_heel": float(st.damage[0]),
             "elastic": bool(rep.n_active == 0),
+            "joints": safety.static_measures(solver),
         }
         hist = History(hist_keys)
         snaps = {k: [] for k in ("step", "t", "D", "kappa", "opening", "slip")}
@@ -191,6 +199,9 @@ def run(scene, outdir=None, resume: bool = False, progress: bool = True,
                 setattr(solver, name, arrs[f"solver{name}"].copy())
         solver.time = float(meta["time"])
         static_info = meta["static"]
+        safety.restore(arrs, static_info)
+        if safety.uplift.active:
+            f_static = f_base + safety.uplift.load(safety.p_static)
         t_static = static_info["wall"]
         u_static = arrs["u_static"]
         hist = History.from_arrays(arrs, hist_keys)
@@ -208,7 +219,8 @@ def run(scene, outdir=None, resume: bool = False, progress: bool = True,
 
     def checkpoint(k, dyn_wall):
         arrays = {"u": solver.u, "v": solver.v, "a": solver.a, "f": solver.f,
-                  "u_static": u_static, "heel_u": heel["u"], **energy.state()}
+                  "u_static": u_static, "heel_u": heel["u"], **energy.state(),
+                  **safety.checkpoint_arrays()}
         for name in ("t", "g", "_phi", "_active"):
             if hasattr(solver, name):
                 arrays[f"solver{name}"] = np.asarray(getattr(solver, name))
@@ -235,7 +247,7 @@ def run(scene, outdir=None, resume: bool = False, progress: bool = True,
         for k in range(k_start + 1, n_steps + 1):
             f_k = f_static - Mrx * ax[k] - Mry * ay[k]
             try:
-                rep = solver.step(f_k)
+                rep, f_k = safety.step(solver, f_k)      # f_k: with the uplift used
             except SolverError as e:
                 raise SolverError(f"{scene.name}: step {k} (t = {times[k]:.4f} s): {e}") \
                     from None
@@ -252,7 +264,8 @@ def run(scene, outdir=None, resume: bool = False, progress: bool = True,
                         crack_length_heel=jm["base_crack_length_upstream"],
                         max_D=jm["base_max_D"], D_heel=float(st.damage[0]),
                         kappa_heel=float(st.kappa[0]), size_b=jm["base_size_b"],
-                        sigma_max=jm["base_sigma_max"], wall=rep.wall, **jm, **en)
+                        sigma_max=jm["base_sigma_max"], wall=rep.wall, **jm, **en,
+                        **safety.step_measures(solver.t, st))
             update_laws(st)                  # size-scale update for the next step
             if k in snap_steps:
                 snapshot(snaps, k, times[k])
@@ -306,6 +319,14 @@ def run(scene, outdir=None, resume: bool = False, progress: bool = True,
     t_outputs = time.perf_counter() - t_out
 
     res = results_from_history(H, snaps, iface.x[base], w[base])
+    # post-earthquake static state from the final interface state (after final_state.npz)
+    t_pe = time.perf_counter()
+    post = safety.post_earthquake(solver, f_base)
+    post["wall"] = time.perf_counter() - t_pe
+    safety_sum = safety.summary(H, ts.dt)
+    from ..out.safety_plots import write_safety_outputs
+    files.extend(write_safety_outputs(out, scene, gm, H, static_info.get("joints"), post,
+                                      safety_sum, plots=plots))
     walls = H["wall"]
     summary = {
         "scene": scene_d,
@@ -313,7 +334,10 @@ def run(scene, outdir=None, resume: bool = False, progress: bool = True,
         "ground_motion": {"label": gm.label, "synthetic": bool(gm.synthetic),
                           "source": gm.source, "dt": gm.dt,
                           "peak_g": list(gm.peak_g()),
-                          "start": scene.ground_motion.start},
+                          "start": scene.ground_motion.start,
+                          # record metadata (event, station, magnitude, PGA, citation) when
+                          # the reader knows it (FEMA P695 / PEER NGA records; issue #14)
+                          "metadata": dict(getattr(gm, "meta", None) or {})},
         "formulation": FORMULATION,
         "stopped": stopped,
         "crest_point": list(model.crest_point),
@@ -349,6 +373,13 @@ def run(scene, outdir=None, resume: bool = False, progress: bool = True,
                           if walls.size else 0,
                           "steps_with_cuts": int(np.count_nonzero(H["cuts"]))},
         "results": res,
+        "post_earthquake": post,
+        "safety": {"joints": safety_sum, "uplift_fixed_point_solves":
+                   safety.fixed_point_iterations,
+                   "uplift_fixed_point_unconverged": safety.fixed_point_unconverged,
+                   "definition": "FS = (f max(N', 0) + sum over bonded points of w c) / |T| "
+                                 "(EM 1110-2-2100 eq. 3-1; f, c the law's current values); "
+                                 "docs/decisions.md, Safety"},
         "resumed_from_step": resumed_from,
         "environment": environment_info(),
         "files": sorted(set(files)),

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 from .laws import build_law, build_scaling, characteristic_times, law_parts, validate_laws
 from .records import DEFAULT_RECORDS, load_ground_motion
+from .uplift import describe_uplift, validate_safety
 
 __all__ = ["FORMULATION", "build_law", "build_scaling", "characteristic_times", "law_parts",
            "load_ground_motion", "describe", "validate", "validate_laws", "DEFAULT_RECORDS"]
@@ -23,6 +24,7 @@ def validate(scene):
     and parses, or the named set has the record). The scene schema has already checked the
     profile, the joints and the levels. Returns the loaded ground motion."""
     validate_laws(scene)
+    validate_safety(scene)        # uplift, foundation (issue #13)
     try:
         return load_ground_motion(scene)
     except (OSError, ValueError, KeyError, IndexError) as e:
@@ -70,4 +72,5 @@ def describe(scene) -> dict:
                         f"{t.newmark_beta}, gamma {t.newmark_gamma}",
                 "formulation": FORMULATION,
                 "checkpoint_every": scene.output.checkpoint_every,
-                "vtk_every": scene.output.vtk_every}}
+                "vtk_every": scene.output.vtk_every,
+                "uplift": describe_uplift(scene)}}

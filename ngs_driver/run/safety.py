@@ -1,0 +1,319 @@
+"""What a dam-safety review reads (issue #13): uplift on the joints, the forces on each joint, the
+sliding factor of safety FS(t), and the post-earthquake static state.
+
+Uplift enters the condensed solver as an **external load vector**
+
+    f_U = B^T W (p e_N)          (p >= 0 the pore pressure at each joint point)
+
+i.e. a traction p on both faces of every point pushing them apart (the virtual work of the
+pressure is p dg_N). For a given p it is linear in u and leaves the solver's equations and its
+Newton loop untouched. p depends on the crack state only through ``uplift.in_crack``
+("zero", "full_headwater"; "unchanged" freezes the pre-earthquake p): for those, each static
+solve and each time step is repeated from the committed state with the p of the crack state it
+ended in until the crack state no longer changes (a fixed point over the whole step, not a lag:
+the accepted step satisfies the equations with the p of its own end-of-step crack state).
+
+Safety measures per joint (docs/decisions.md "Safety"):
+
+    N' = -sum w t_N    effective normal force [N/m] (compression positive; uplift already out)
+    T  = |sum w t_T|   shear force [N/m]
+    U  = sum w p       uplift force [N/m]
+    L_b = sum w over bonded points;  C = sum_bonded w c_p,
+    c_p = (1 - D) tau_max (l_Nc/l_Tc) min(1, (1 - kappa)/(1 - lambda_max))   (current law)
+    FS = (f max(N', 0) + C) / T      (USACE EM 1110-2-2100 eq. 3-1 with the law's f and c)
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from ..setup.uplift import heads, joint_extent, pressure_profile
+from .joints import crack_measures
+
+__all__ = ["UpliftField", "Safety", "tailwater_load", "SAFETY_KEYS", "FS_CRITERION"]
+
+SAFETY_KEYS = ("normal_force", "shear_force", "uplift_force", "bonded_length", "sliding_fs")
+FS_CRITERION = 1.3        # post-earthquake sliding criterion (FERC guidelines ch. 3; issue #13)
+FS_CAP = 1e6              # FS reported when the shear force vanishes
+_SOLVER_FIELDS = ("u", "v", "a", "f", "time", "t", "g", "_phi", "_active")
+
+
+def tailwater_load(model, level: float, rho_w: float, gravity: float):
+    """Hydrostatic tailwater on the downstream face (and the rock top downstream of the toe)
+    as a free-DOF load vector; None when there is no tailwater. Traction -p n_out, n_out the
+    dam's outward normal (n_x > 0 on the downstream face)."""
+    if level <= 0.0:
+        return None
+    import ngsolve as ngs
+
+    from ..fe.ngs_helpers import vec
+
+    test = model.fes.TestFunction()
+    test = tuple(test) if isinstance(test, (list, tuple)) else (test,)
+    nb = sum(1 for r in model.regions if r != "rock")
+    pw = rho_w * gravity * ngs.IfPos(level - ngs.y, level - ngs.y, 0.0)
+    nrm = ngs.specialcf.normal(2)
+    n_out = ngs.IfPos(nrm[0], 1.0, -1.0) * nrm
+    lf = ngs.LinearForm(model.fes)
+    for vv in test[:nb]:
+        lf += -pw * ngs.InnerProduct(n_out, vv) * ngs.ds("downstream", bonus_intorder=2)
+    if "rock" in model.regions and "rock_top_down" in set(model.mesh.GetBoundaries()):
+        lf += -rho_w * gravity * level * test[-1][1] * ngs.ds("rock_top_down")
+    lf.Assemble()
+    return vec(lf)[model.free]
+
+
+class UpliftField:
+    """The pore pressure at the interface points (all joints) and its load vector."""
+
+    def __init__(self, scene, iface, names, slices):
+        self.names, self.slices = list(names), list(slices)
+        self.B, self.w = iface.B, iface.w
+        self.BT = iface.B.T.tocsr()
+        tables = dict(scene.uplift_tables())
+        rho_g = scene.loads.water_density * scene.loads.gravity
+        self.spec = []
+        for name, sl in zip(self.names, self.slices):
+            up = tables[name]
+            y, xu, xd = joint_extent(scene, name)
+            hh, ht = heads(scene, y, up)
+            self.spec.append((up, iface.x[sl] - xu, xd - xu, rho_g * hh, rho_g * ht))
+        self.active = any(s[0].model != "none" for s in self.spec)
+        self.state_dependent = any(s[0].model != "none" and s[0].in_crack != "unchanged"
+                                   for s in self.spec)
+        self.p_pre = None              # frozen pre-earthquake pressure ("unchanged")
+        self.p = np.zeros(iface.w.size)
+
+    def pressure(self, state) -> np.ndarray:
+        """p [Pa] at every point for the crack state ``state`` (module docstring)."""
+        p = np.zeros(self.w.size)
+        for (up, s, L, ph, pt), sl in zip(self.spec, self.slices):
+            if up.model == "none":
+                continue
+            st = state.take(sl)
+            if up.in_crack == "unchanged" and self.p_pre is not None:
+                p[sl] = self.p_pre[sl]
+            elif up.in_crack == "zero":
+                p[sl] = np.where(np.asarray(st.debonded, bool), 0.0,
+                                 pressure_profile(s, L, ph, pt, up))
+            else:      # full_headwater; "unchanged" before the shaking: the cracked drawing
+                a = crack_measures(st, self.w[sl])[1]
+                p[sl] = pressure_profile(s, L, ph, pt, up, crack=a)
+        return p
+
+    def load(self, p) -> np.ndarray:
+        """B^T W (p e_N): the free-DOF load of the pressure p."""
+        gv = np.zeros(2 * self.w.size)
+        gv[0::2] = self.w * p
+        return self.BT @ gv
+
+
+def _snapshot(solver):
+    snap = {k: getattr(solver, k) for k in _SOLVER_FIELDS if hasattr(solver, k)}
+    snap = {k: (v.copy() if isinstance(v, np.ndarray) else v) for k, v in snap.items()}
+    snap["state"] = solver.state.copy()
+    return snap
+
+
+def _restore(solver, snap):
+    for k, v in snap.items():
+        setattr(solver, k, v.copy() if isinstance(v, np.ndarray) else
+                (v.copy() if k == "state" else v))
+
+
+class Safety:
+    """Uplift, safety measures and the post-earthquake solve of one run."""
+
+    MAX_FIXED_POINT = 20
+
+    def __init__(self, scene, model, joints):
+        self.scene = scene
+        self.joints = joints
+        self.uplift = UpliftField(scene, model.interface, joints.names, joints.slices)
+        u = scene.uplift
+        self.f_tail = tailwater_load(model, u.tailwater, scene.loads.water_density,
+                                     scene.loads.gravity)
+        self.fixed_point_iterations = 0     # extra solves spent on the p(crack) fixed point
+        self.fixed_point_unconverged = 0    # steps accepted at the iteration cap
+        self.p_static = np.zeros(joints.w.size)
+        self.static = None
+
+    # ---------------------------------------------------------------- loads and solves
+    def extra_static_load(self, nfree):
+        """Loads this module adds to the static ones besides the uplift (tailwater)."""
+        return np.zeros(nfree) if self.f_tail is None else self.f_tail
+
+    def _solve(self, solver, call, f_base, p0, dependent):
+        """``call(f)`` (solver.static or solver.step) with f = f_base + f_U(p), p consistent
+        with the crack state the solve ends in. Returns (report, p, f)."""
+        p = p0
+        if not dependent:
+            f = f_base + self.uplift.load(p) if self.uplift.active else f_base
+            return call(f), p, f
+        snap = _snapshot(solver)
+        for k in range(self.MAX_FIXED_POINT):
+            f = f_base + self.uplift.load(p)
+            rep = call(f)
+            p_new = self.uplift.pressure(solver.state)
+            if np.array_equal(p_new, p):
+                return rep, p, f
+            self.fixed_point_iterations += 1
+            if k == self.MAX_FIXED_POINT - 1:
+                break
+            _restore(solver, snap)
+            p = p_new
+        self.fixed_point_unconverged += 1
+        return rep, p, f
+
+    def solve_static(self, solver, f_base):
+        """The pre-earthquake static state; freezes the pre-earthquake pressure. Returns
+        (report, f_static) with f_static = f_base + f_U(p_static)."""
+        p0 = self.uplift.pressure(solver.state)
+        # before the shaking every drawing depends on the static crack (cracked-base rule)
+        rep, p, f = self._solve(solver, solver.static, f_base, p0, self.uplift.active)
+        self.p_static = p.copy()
+        self.uplift.p_pre = p.copy()
+        self.uplift.p = p.copy()
+        return rep, f
+
+    def step(self, solver, f_k):
+        """One time step; f_k already holds the static uplift. Returns (report, load used)."""
+        if not self.uplift.state_dependent:
+            return solver.step(f_k), f_k
+        f_base = f_k - self.uplift.load(self.p_static)
+        rep, p, f = self._solve(solver, solver.step, f_base, self.uplift.p, True)
+        self.uplift.p = p
+        return rep, f
+
+    # ---------------------------------------------------------------- measures
+    def joint_measures(self, t, state, p) -> dict:
+        """{joint: {normal_force, shear_force, uplift_force, bonded_length, cohesion_force,
+        friction, sliding_fs, slip_mean}} from tractions t, state and pressure p."""
+        out = {}
+        w = self.joints.w
+        for name, sl, law in zip(self.joints.names, self.joints.slices, self.joints.laws):
+            ws = w[sl]
+            st = state.take(sl)
+            N = -float(np.dot(ws, t[sl, 0]))
+            T = abs(float(np.dot(ws, t[sl, 1])))
+            U = float(np.dot(ws, p[sl]))
+            bonded = ~np.asarray(st.debonded, bool)
+            c = law.cohesive
+            soft = np.clip((1.0 - st.kappa) / (1.0 - c.lambda_max), 0.0, 1.0)
+            cp = (1.0 - st.damage) * c.tau_max * (c.l_Nc / c.l_Tc) * soft
+            C = float(np.dot(ws[bonded], cp[bonded]))
+            f = 0.0 if law.friction is None else float(law.friction.f)
+            num = f * max(N, 0.0) + C
+            fs = num / T if T > num / FS_CAP else FS_CAP
+            out[name] = {"normal_force": N, "shear_force": T, "uplift_force": U,
+                         "bonded_length": float(ws[bonded].sum()), "cohesion_force": C,
+                         "friction": f, "sliding_fs": fs}
+        return out
+
+    def step_measures(self, t, state) -> dict:
+        """The per-step history columns "<joint>_<SAFETY_KEYS>"."""
+        m = self.joint_measures(t, state, self.uplift.p)
+        return {f"{n}_{k}": m[n][k] for n in m for k in SAFETY_KEYS}
+
+    def history_keys(self) -> list[str]:
+        return [f"{n}_{k}" for n in self.joints.names for k in SAFETY_KEYS]
+
+    def static_measures(self, solver) -> dict:
+        m = self.joint_measures(solver.t, solver.state, self.uplift.p)
+        for name, sl in zip(self.joints.names, self.joints.slices):
+            ws = self.joints.w[sl]
+            m[name]["slip_mean"] = float(np.dot(ws, solver.g[sl, 1]) / ws.sum())
+        self.static = m
+        return m
+
+    # ---------------------------------------------------------------- after the shaking
+    def post_earthquake(self, solver, f_base_static) -> dict:
+        """Static solve from the final interface state (the crack left by the shaking carries
+        no cohesion, friction is the law's current one, uplift per in_crack); the sliding FS
+        of every joint against FS_CRITERION. ``f_base_static``: gravity + water (+ tailwater),
+        without uplift. A solve that finds no equilibrium reports FS from the load resultants
+        (statically determinate for a rigid block) and says so."""
+        from ..solve.newmark import SolverError
+
+        self.uplift.p = self.uplift.pressure(solver.state)
+        try:
+            rep, p, f = self._solve(solver, solver.static, f_base_static, self.uplift.p,
+                                    self.uplift.state_dependent)
+            self.uplift.p = p
+            m = self.joint_measures(solver.t, solver.state, p)
+            ok, note = True, "static solve from the final interface state"
+            iters = int(rep.iterations)
+        except SolverError as e:
+            m = self._resultant_measures(solver, f_base_static)
+            ok, iters = False, None
+            note = (f"no static equilibrium from the final state ({e}); FS from the load "
+                    "resultants on the blocks above each joint: the dam slides")
+        joints = {}
+        for name in self.joints.names:
+            d = dict(m[name])
+            d["meets_criterion"] = bool(d["sliding_fs"] >= FS_CRITERION)
+            joints[name] = d
+        return {"converged": ok, "newton_iterations": iters, "criterion": FS_CRITERION,
+                "note": note, "joints": joints}
+
+    def _resultant_measures(self, solver, f_base):
+        """Joint forces from the loads when no static equilibrium exists (base only: the
+        dam's total load; a lift joint takes the same figures scaled by nothing better, so
+        only the base is given this way)."""
+        p = self.uplift.p
+        f = f_base + (self.uplift.load(p) if self.uplift.active else 0.0)
+        out = self.joint_measures(solver.t, solver.state, p)
+        dam = self._dam_mask
+        if dam is not None:
+            b = out["base"]
+            U = b["uplift_force"]
+            Fy = float(np.sum(f[dam & self._ydof]))       # net vertical load on the dam
+            Fx = float(np.sum(f[dam & self._xdof]))
+            N = -Fy       # N' = W - U - (other vertical loads)
+            T = abs(Fx)
+            C = b["cohesion_force"]
+            num = b["friction"] * max(N, 0.0) + C
+            b.update(normal_force=N, shear_force=T, uplift_force=U,
+                     sliding_fs=num / T if T > num / FS_CAP else FS_CAP)
+        return out
+
+    _dam_mask = None
+    _ydof = None
+    _xdof = None
+
+    def set_dof_masks(self, model):
+        """Dam DOFs and y-component DOFs (for the load resultants)."""
+        self._dam_mask = np.asarray(model.dam_dofs, bool)
+        self._ydof = np.abs(model.r_y) > 0.5
+        self._xdof = np.abs(model.r_x) > 0.5
+
+    # ---------------------------------------------------------------- summary
+    def summary(self, H, dt) -> dict:
+        """Per joint: minimum FS and when, time below 1, cumulative and residual slip."""
+        out = {}
+        t = H["t"]
+        for name in self.joints.names:
+            fs = H[f"{name}_sliding_fs"] if t.size else np.zeros(0)
+            sm = H[f"{name}_slip_mean"] if t.size else np.zeros(0)
+            s0 = self.static[name]["slip_mean"] if self.static else 0.0
+            path = np.concatenate([[s0], sm])
+            i = int(np.argmin(fs)) if fs.size else None
+            out[name] = {
+                "min_sliding_fs": float(fs[i]) if fs.size else None,
+                "t_min_sliding_fs": float(t[i]) if fs.size else None,
+                "time_fs_below_1": float(dt * np.count_nonzero(fs < 1.0)),
+                "cumulative_slip": float(np.sum(np.abs(np.diff(path)))),
+                "residual_slip": float(path[-1] - s0),
+                "max_uplift_force": float(H[f"{name}_uplift_force"].max()) if t.size
+                else None,
+            }
+        return out
+
+    def checkpoint_arrays(self) -> dict:
+        return {"safety_p_static": self.p_static, "safety_p": self.uplift.p}
+
+    def restore(self, arrs, static_info):
+        if "safety_p_static" in arrs:
+            self.p_static = np.array(arrs["safety_p_static"])
+            self.uplift.p_pre = self.p_static.copy()
+            self.uplift.p = np.array(arrs["safety_p"])
+        self.static = (static_info or {}).get("joints")

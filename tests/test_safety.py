@@ -1,0 +1,159 @@
+"""Safety outputs (issue #13): joint forces, uplift, sliding FS, post-earthquake state, on the
+coarse koyna_smoke mesh with a rigid foundation (a few hundred DOFs)."""
+import json
+
+import numpy as np
+import pytest
+
+pytest.importorskip("ngsolve")
+
+from ngs_driver.fe.model import build_from_scene  # noqa: E402
+from ngs_driver.out.files import read_csv  # noqa: E402
+from ngs_driver.run.dam import run  # noqa: E402
+from ngs_driver.run.joints import JointSet, crack_measures  # noqa: E402
+from ngs_driver.run.safety import Safety  # noqa: E402
+from ngs_driver.scene import load_scene  # noqa: E402
+from ngs_driver.solve.newmark import NewmarkSolver  # noqa: E402
+
+RIGID = ["geometry.foundation=rigid"]
+RHO_G, H, B = 1000.0 * 9.81, 92.0, 70.0
+W = 2500.0 * 9.81 * 3588.975          # the Koyna section's weight per metre (area by shoelace)
+TAU, F = 10.0e6, 0.3
+
+
+@pytest.fixture(scope="module")
+def rigid_model():
+    return build_from_scene(load_scene("koyna_smoke", RIGID))
+
+
+@pytest.fixture(scope="module")
+def elastic_run(tmp_path_factory, rigid_model):
+    """Static + 5 steps at 1/60 of the smoke record, then the post-earthquake solve. The base
+    stays on its initial linear branch: no damage part, and strengths of 10 MPa (at 3 MPa the
+    coarse mesh's heel point, 2.5 MPa tension + 1.2 MPa shear under full uplift, softens:
+    kappa = 0.27 > lambda_max)."""
+    sc = load_scene("koyna_smoke", RIGID + ["uplift.model=linear", "interface.damage=false",
+                                            "interface.sigma_max=10e6", "interface.tau_max=10e6",
+                                            "ground_motion.scale=0.05", "time.duration=0.01",
+                                            "solver.tol_residual=1e-12"])
+    out = tmp_path_factory.mktemp("safety")
+    return out, run(sc, out, progress=False, model=rigid_model, plots=False)
+
+
+def test_static_forces_and_fs_by_hand(elastic_run):
+    """Rigid foundation, no tailwater, linear uplift: N' = W - rho_w g H B / 2, T = rho_w g
+    H^2 / 2, U = rho_w g H B / 2, FS = (f N' + tau_max B)/T. The interface stays on its linear
+    branch, so the static solve is one linear solve and equilibrium holds to round-off; 1e-8
+    relative leaves room for the ~1e-12 of the sparse solve and the quadrature of the linear
+    pressure (exact with 3 Gauss points)."""
+    out, s = elastic_run
+    d = json.loads((out / "summary.json").read_text())
+    b = d["static"]["joints"]["base"]
+    U = 0.5 * RHO_G * H * B
+    T = 0.5 * RHO_G * H ** 2
+    assert b["uplift_force"] == pytest.approx(U, rel=1e-8)
+    assert b["normal_force"] == pytest.approx(W - U, rel=1e-8)
+    assert b["shear_force"] == pytest.approx(T, rel=1e-8)
+    assert b["bonded_length"] == pytest.approx(B, rel=1e-12)
+    assert b["sliding_fs"] == pytest.approx((F * (W - U) + TAU * B) / T, rel=1e-8)
+    H_ = read_csv(out / "timeseries.csv")
+    assert "base_sliding_fs" in H_ and H_["base_sliding_fs"].size == 5
+    # the uplift is frozen ("unchanged") and the base elastic: U is the static value each step
+    assert np.allclose(H_["base_uplift_force"], U, rtol=1e-12)
+
+
+def test_post_earthquake_fs_of_an_undamaged_base_equals_static(elastic_run):
+    """The record leaves no trace on an elastic base: the static solve from the final state
+    is the static state again (1e-9: two linear solves of the same system, one started from
+    the final dynamic state)."""
+    out, s = elastic_run
+    pe = s["post_earthquake"]
+    assert pe["converged"] and pe["criterion"] == 1.3
+    fs0 = s["static"]["joints"]["base"]["sliding_fs"]
+    assert pe["joints"]["base"]["sliding_fs"] == pytest.approx(fs0, rel=1e-9)
+    assert pe["joints"]["base"]["meets_criterion"] is True
+    sf = s["safety"]["joints"]["base"]
+    assert sf["time_fs_below_1"] == 0.0
+    assert abs(sf["residual_slip"]) <= sf["cumulative_slip"] + 1e-18
+    assert "Safety" in (out / "results.md").read_text()
+
+
+def _precracked(model, scene, a_target):
+    """Static state with the base debonded (kappa = 1) from the heel to the segment node
+    nearest a_target (so that the kink of the drawing is a node and the quadrature exact)."""
+    it = model.interface
+    nodes = np.unique(np.round(it.segments[:, :, 0].ravel(), 12))
+    a = float(nodes[np.argmin(np.abs(nodes - a_target))])
+    joints = JointSet(scene, it)
+    s = NewmarkSolver(model.K, model.M, None, it.B, it.w, joints.solver_law(), dt=0.002,
+                      tol_residual=1e-11, max_iter=60)
+    st = s.state.copy()
+    st.kappa[it.x < a] = 1.0
+    s.state = st
+    saf = Safety(scene, model, joints)
+    saf.solve_static(s, model.f_gravity + model.f_water)
+    return a, s, saf.static_measures(s)["base"], saf
+
+
+@pytest.mark.parametrize("in_crack", ["full_headwater", "zero"])
+def test_precracked_base_uplift_by_hand(rigid_model, in_crack):
+    """A base cracked over a ~ 10 m from the heel: full_headwater (ICOLD; the USACE static
+    cracked-base drawing) gives U = rho_w g H (a + (B - a)/2); zero (USBR) gives the uncracked
+    line on the ligament only, U = rho_w g H (B - a)^2 / (2 B). Strength 10 MPa so that the
+    crack does not grow (checked). 1e-10: Gauss quadrature of a piecewise-linear pressure
+    with its kink at a node is exact."""
+    sc = load_scene("koyna_smoke", RIGID + ["uplift.model=linear", f"uplift.in_crack={in_crack}",
+                                            "interface.sigma_max=10e6", "interface.tau_max=10e6",
+                                            "interface.damage=false"])
+    a, s, m, saf = _precracked(rigid_model, sc, 10.0)
+    assert crack_measures(s.state, rigid_model.interface.w)[1] == pytest.approx(a, rel=1e-12)
+    U = RHO_G * H * (a + 0.5 * (B - a)) if in_crack == "full_headwater" \
+        else RHO_G * H * (B - a) ** 2 / (2 * B)
+    assert m["uplift_force"] == pytest.approx(U, rel=1e-10)
+    assert m["normal_force"] == pytest.approx(W - U, rel=1e-8)
+    assert m["sliding_fs"] == pytest.approx((F * (W - U) + TAU * (B - a))
+                                            / (0.5 * RHO_G * H ** 2), rel=1e-8)
+    # the applied pressure is the one of the state the solve ended in (fixed point)
+    assert np.array_equal(saf.uplift.pressure(s.state), saf.p_static)
+
+
+def test_full_headwater_opens_the_crack_more_than_zero(rigid_model):
+    """Same pre-cracked base: the heel opening with full headwater in the crack exceeds the one
+    with zero pressure (measured 2.8e-4 m against 2.0e-5 m)."""
+    g = {}
+    for ic in ("full_headwater", "zero"):
+        sc = load_scene("koyna_smoke", RIGID + ["uplift.model=linear", f"uplift.in_crack={ic}",
+                                                "interface.sigma_max=10e6",
+                                                "interface.tau_max=10e6",
+                                                "interface.damage=false"])
+        a, s, m, saf = _precracked(rigid_model, sc, 10.0)
+        g[ic] = s.g[0, 0]
+    assert g["full_headwater"] > 5 * g["zero"] > 0
+
+
+@pytest.mark.parametrize("in_crack", ["full_headwater", "zero"])
+def test_crack_dependent_uplift_is_a_fixed_point_of_each_step(rigid_model, in_crack):
+    """A base pre-cracked over ~10 m, then 10 steps of a ground acceleration ramped to
+    -10 m/s^2 (inertia pushes the dam downstream): the heel crack runs (to ~34-38 m). Steps
+    whose crack grew are re-solved from the committed state with the pressure of their own end
+    state until it no longer changes: re-solves happen, none is accepted at the cap, and the
+    pressure in force is exactly that of the final crack state."""
+    sc = load_scene("koyna_smoke", RIGID + ["uplift.model=linear", f"uplift.in_crack={in_crack}",
+                                            "interface.damage=false"])
+    it = rigid_model.interface
+    joints = JointSet(sc, it)
+    s = NewmarkSolver(rigid_model.K, rigid_model.M, None, it.B, it.w, joints.solver_law(),
+                      dt=0.002, tol_residual=1e-10, max_iter=60)
+    st = s.state.copy()
+    st.kappa[it.x < 10.0] = 1.0
+    s.state = st
+    saf = Safety(sc, rigid_model, joints)
+    _, f_static = saf.solve_static(s, rigid_model.f_gravity + rigid_model.f_water)
+    s.initial_acceleration(f_static)
+    a0 = crack_measures(s.state, it.w)[1]
+    Mrx = rigid_model.M @ rigid_model.r_x
+    for k in range(1, 11):
+        saf.step(s, f_static + Mrx * 2.0 * min(k, 5))
+    assert crack_measures(s.state, it.w)[1] > a0 + 20.0
+    assert saf.fixed_point_iterations > 0 and saf.fixed_point_unconverged == 0
+    assert np.array_equal(saf.uplift.pressure(s.state), saf.uplift.p)
