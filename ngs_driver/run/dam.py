@@ -29,7 +29,6 @@ import numpy as np
 
 from ..out.files import atomic_savez, atomic_write_json, environment_info
 from ..setup import FORMULATION, characteristic_times, law_parts, validate
-from ..solve.joint_laws import initial_stiffness
 from .checkpoint import Checkpointer
 from .energy import EnergyBudget
 from .joints import JointSet
@@ -94,8 +93,7 @@ def run(scene, outdir=None, resume: bool = False, progress: bool = True,
     assert abs(kn_s - k0n) <= 1e-9 * k0n and abs(kt_s - k0t) <= 1e-9 * k0t
 
     t = time.perf_counter()
-    k0p = initial_stiffness(joints.solver_law(), iface.npts)    # each joint its own k0
-    modal = modal_analysis(model, 6, k0p[:, 0], k0p[:, 1])
+    modal = modal_analysis(model, 6, k0n, k0t)
     d = scene.damping
     damp = damping_from_modes(modal, d.ratio, d.modes, d.frequencies or None)
     # ARPACK's random start vector changes the last bits of the eigenvalues from call to call:
@@ -334,10 +332,7 @@ def run(scene, outdir=None, resume: bool = False, progress: bool = True,
         "ground_motion": {"label": gm.label, "synthetic": bool(gm.synthetic),
                           "source": gm.source, "dt": gm.dt,
                           "peak_g": list(gm.peak_g()),
-                          "start": scene.ground_motion.start,
-                          # record metadata (event, station, magnitude, PGA, citation) when
-                          # the reader knows it (FEMA P695 / PEER NGA records; issue #14)
-                          "metadata": dict(getattr(gm, "meta", None) or {})},
+                          "start": scene.ground_motion.start},
         "formulation": FORMULATION,
         "stopped": stopped,
         "crest_point": list(model.crest_point),
