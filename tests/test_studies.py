@@ -169,6 +169,9 @@ def test_ida_local_cluster_writes_table_fragility_and_figures(first_study):
         s = json.loads((out / "runs" / r["id"] / "summary.json").read_text())
         assert s["results"]["crack_length_heel_max"] == r["crack_heel_max_m"]
         assert r["slip_max_m"] >= r["slip_residual_m"] >= 0.0
+        sj = (s.get("safety") or {}).get("joints", {}).get("base")
+        if sj is not None:   # SAFETY's own residual slip of the base: the probe agrees
+            assert r["slip_residual_m"] == pytest.approx(abs(sj["residual_slip"]), rel=1e-3)
     # doubling the level doubles the (elastic, tiny) slip of the same record: the demands
     # come from the right runs (2e-3 relative: the response is linear up to the law's
     # contact and the static state, both unchanged)

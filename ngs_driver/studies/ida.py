@@ -174,29 +174,39 @@ def _run_scene(base, address, scale):
 _PROBE_LOCK = threading.Lock()
 
 
+def _base_slice(scene, model):
+    """The base joint's points in the interface vector (lift joints follow it); all points
+    when the model has a single interface."""
+    try:
+        from ..run.joints import JointSet
+        return JointSet(scene, model.interface).slices[0]
+    except (ImportError, AttributeError):
+        return slice(None)
+
+
 @contextlib.contextmanager
-def _probe(model):
+def _probe(model, base=slice(None)):
     """Record the mean base slip and the crest displacement after every accepted step.
 
     ``run/dam.py`` imports ``NewmarkSolver`` from ``solve.newmark`` when it runs; we put a
     subclass that records after ``static``/``step`` there for the duration of the run. Its
     per-step history has no slip column (yet), and the demands need the maximum over time."""
     import ngs_driver.solve.newmark as nm
-    base = nm.NewmarkSolver
-    w = np.asarray(model.interface.w, float)
+    cls = nm.NewmarkSolver
+    w = np.asarray(model.interface.w, float)[base]
     W = float(w.sum())
     cx = model.crest_dofs[0]
     rec = {"static_slip": 0.0, "slip": [], "crest_ux": []}
 
-    class _Probe(base):
+    class _Probe(cls):
         def static(self, *a, **k):
             r = super().static(*a, **k)
-            rec["static_slip"] = float(np.dot(w, self.g[:, 1]) / W)
+            rec["static_slip"] = float(np.dot(w, self.g[base, 1]) / W)
             return r
 
         def step(self, *a, **k):
             r = super().step(*a, **k)
-            rec["slip"].append(float(np.dot(w, self.g[:, 1]) / W))
+            rec["slip"].append(float(np.dot(w, self.g[base, 1]) / W))
             rec["crest_ux"].append(float(self.u[cx]))
             return r
 
@@ -205,12 +215,23 @@ def _probe(model):
         try:
             yield rec
         finally:
-            nm.NewmarkSolver = base
+            nm.NewmarkSolver = cls
 
 
-def demand_measures(summary: dict | None, rec: dict, model) -> dict:
-    """The demand measures (EDPs) of one run; partial (probe only) when summary is None."""
-    w = np.asarray(model.interface.w, float)
+def _flat(prefix, d, out, depth=0):
+    """Numeric leaves of a nested dict as prefix_key_subkey (SAFETY's FS values)."""
+    for k, v in d.items():
+        name = f"{prefix}_{k}"
+        if isinstance(v, dict) and depth < 3:
+            _flat(name, v, out, depth + 1)
+        elif isinstance(v, (int, float)) and not isinstance(v, bool) and k != "wall":
+            out[name] = float(v)
+
+
+def demand_measures(summary: dict | None, rec: dict, model, base=slice(None)) -> dict:
+    """The demand measures (EDPs) of one run; partial (probe only) when summary is None.
+    Interface measures are those of the base joint (``summary['results']`` is the base's)."""
+    w = np.asarray(model.interface.w, float)[base]
     y = np.asarray(model.interface.y if hasattr(model.interface, "y") else [0.0], float)
     height = float(model.crest_point[1] - np.min(y))
     slip = np.asarray(rec["slip"], float) - rec["static_slip"]
@@ -235,9 +256,14 @@ def demand_measures(summary: dict | None, rec: dict, model) -> dict:
     })
     d["full_base_failure"] = int(bool(stopped) or
                                  res["crack_length_total_max"] >= base_len * (1 - 1e-9))
-    for k, v in (summary.get("safety") or {}).items():     # SAFETY's FS values when present
-        if isinstance(v, (int, float)) and not isinstance(v, bool):
-            d[f"safety_{k}"] = float(v)
+    # SAFETY (issue #13) when present: per joint min FS, slip, post-earthquake FS ...
+    safety = summary.get("safety") or {}
+    _flat("safety", safety.get("joints", {}), d)
+    for k, v in (summary.get("post_earthquake") or {}).items():
+        if isinstance(v, dict):
+            _flat(f"post_earthquake_{k}", v, d)
+        elif isinstance(v, (int, float)) and not isinstance(v, bool) and k != "wall":
+            d[f"post_earthquake_{k}"] = float(v)
     return d
 
 
@@ -267,14 +293,15 @@ def execute(spec: dict, root: str) -> dict:
     from ..fe.model import build_from_scene
     from ..run.dam import run
     model = build_from_scene(scene)
+    base = _base_slice(scene, model)
     status, message, summary = "ok", None, None
-    with _probe(model) as rec:
+    with _probe(model, base) as rec:
         try:
             summary = run(scene, d, progress=False, plots=False, model=model,
                           log=lambda *a, **k: None)
         except SolverError as e:               # physical: recorded, not retried
             status, message = "failed", str(e)
-    demands = demand_measures(summary, rec, model)
+    demands = demand_measures(summary, rec, model, base)
     result = {k: v for k, v in spec.items() if k != "scene"}
     result.update({"status": status, "message": message, "demands": demands,
                    "wall_s": time.perf_counter() - t0, "attempts": attempts,
