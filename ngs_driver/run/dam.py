@@ -332,7 +332,10 @@ def run(scene, outdir=None, resume: bool = False, progress: bool = True,
         "ground_motion": {"label": gm.label, "synthetic": bool(gm.synthetic),
                           "source": gm.source, "dt": gm.dt,
                           "peak_g": list(gm.peak_g()),
-                          "start": scene.ground_motion.start},
+                          "start": scene.ground_motion.start,
+                          # record metadata (event, station, magnitude, PGA, citation) when
+                          # the reader knows it (FEMA P695 / PEER NGA records; issue #14)
+                          "metadata": dict(getattr(gm, "meta", None) or {})},
         "formulation": FORMULATION,
         "stopped": stopped,
         "crest_point": list(model.crest_point),
