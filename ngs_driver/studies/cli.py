@@ -2,7 +2,8 @@
 
     dam-seismic ida SCENE --suite fema-p695-farfield [--records 1,2] [--components a,b]
         --im pga|sa --levels 0.05,0.1 --out DIR [--workers N | --scheduler tcp://HOST:PORT]
-        [--set KEY=VALUE ...] [--failed exceed|exclude] [--no-plots] [--quiet]
+        [--set KEY=VALUE ...] [--window scene|record] [--failed exceed|exclude]
+        [--no-plots] [--quiet]
 
 Exit codes: 0 done (physical solver failures are results), 1 some runs ended in an error
 (re-run the command: finished runs are skipped), 2 bad input (nothing submitted).
@@ -36,6 +37,9 @@ def add_ida_parser(sub):
     p.add_argument("--failed", default="exceed", choices=("exceed", "exclude"),
                    help="runs that fail physically count as exceeding every limit state "
                         "(default) or are left out of the fragility fits")
+    p.add_argument("--window", default="scene", choices=("scene", "record"),
+                   help="analysed window: the scene's ground_motion.start/time.duration "
+                        "(default) or each record whole (start 0, duration = its length)")
     p.add_argument("--no-plots", action="store_true", help="no PNGs")
     p.add_argument("--quiet", action="store_true", help="no progress bar, log file only")
     return p
@@ -55,7 +59,7 @@ def cmd_ida(a) -> int:
         res = run_ida(a.scene, overrides=a.overrides, suite=a.suite, records=records,
                       components=comps, im=a.im, levels=levels, out=a.out,
                       workers=a.workers, scheduler=a.scheduler, failed=a.failed,
-                      plots=not a.no_plots, progress=not a.quiet)
+                      plots=not a.no_plots, progress=not a.quiet, window=a.window)
     except fema.MissingRecordsPackage as e:
         return _err(str(e))
     except (StudyInputError, ValueError) as e:

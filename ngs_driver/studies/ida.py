@@ -62,8 +62,13 @@ class StudyInputError(ValueError):
 # ---------------------------------------------------------------------------------------------
 # plan
 # ---------------------------------------------------------------------------------------------
-def scene_hash(scene) -> str:
+WINDOWS = ("scene", "record")
+
+
+def scene_hash(scene, window: str = "scene") -> str:
     d = scene.to_dict()
+    if window != "scene":
+        d["_window"] = window          # the analysed window changes every run
     for k in ("name", "description", "output"):
         d.pop(k, None)
     gm = dict(d.get("ground_motion", {}))
@@ -159,11 +164,21 @@ def _load_base_scene(scene, overrides):
     return scene
 
 
-def _run_scene(base, address, scale):
+def _run_scene(base, address, scale, window: str = "scene"):
+    """The scene of one run. window 'scene': the scene's own start/duration; 'record': the
+    whole record (start 0, duration = the record's length)."""
     from ..scene import from_dict
     raw = base.to_dict()
     raw["ground_motion"]["record"] = address
     raw["ground_motion"]["scale"] = float(scale)
+    if window == "record":
+        rset, n, comp = fema.parse_address(address)
+        dt, a = fema.read_component(rset, n, comp)
+        raw["ground_motion"]["start"] = 0.0
+        steps = int(math.floor((a.size - 1) * dt / base.time.dt + 1e-9))
+        raw["time"]["duration"] = steps * base.time.dt
+    elif window != "scene":
+        raise StudyInputError(f"--window {window!r}: not allowed; choose one of {list(WINDOWS)}")
     raw["output"]["checkpoint_every"] = 0       # no resume inside a run (see module doc)
     return from_dict(raw)
 
@@ -370,6 +385,7 @@ def _connect(workers, scheduler, log):
 def run_ida(scene, *, suite: str, im: str, levels, out, records=None, components=None,
             overrides=None, workers: int | None = None, scheduler: str | None = None,
             progress: bool = True, failed: str = "exceed", plots: bool = True,
+            window: str = "scene",
             log=None, client=None) -> dict:
     """The IDA (see the module doc). Returns {'rows', 'fragility', 'submitted', 'skipped',
     'errors', 'files'}. ``client``: an existing dask Client (tests)."""
@@ -379,7 +395,9 @@ def run_ida(scene, *, suite: str, im: str, levels, out, records=None, components
     if failed not in ("exceed", "exclude"):
         raise StudyInputError(f"--failed {failed!r}: allowed 'exceed' or 'exclude'")
     base = _load_base_scene(scene, overrides)
-    h = scene_hash(base)
+    if window not in WINDOWS:
+        raise StudyInputError(f"--window {window!r}: not allowed; choose one of {list(WINDOWS)}")
+    h = scene_hash(base, window)
 
     log_path = out / "ida.log"
     held = []          # log lines before the study directory exists (nothing is written
@@ -432,7 +450,7 @@ def run_ida(scene, *, suite: str, im: str, levels, out, records=None, components
         for p in pending:
             key = p["address"]
             if key not in cache:
-                unit = _run_scene(base, key, 1.0)
+                unit = _run_scene(base, key, 1.0, window)
                 cache[key] = scale_factor(unit, im, 1.0, T1)[1]
                 w = _window_note(unit)
                 if w:
@@ -440,7 +458,7 @@ def run_ida(scene, *, suite: str, im: str, levels, out, records=None, components
             im0 = cache[key]
             sf = p["level_g"] / im0
             try:
-                sc = _run_scene(base, key, sf)
+                sc = _run_scene(base, key, sf, window)
             except ValueError as e:
                 raise StudyInputError(f"run {p['id']}: {e} (scale factor {sf:.4g} = level "
                                       f"{p['level_g']:g} g / {im} {im0:.4g} g of the record)") \
@@ -482,7 +500,7 @@ def run_ida(scene, *, suite: str, im: str, levels, out, records=None, components
         "scene": base.to_dict(), "scene_hash": h, "suite": suite, "im": im,
         "levels_g": levels, "components": comps,
         "records": [fema.address(s, n, "") for s, n in chosen], "T1": T1_info,
-        "citation": fema.CITATION, "failed_runs_count_as": failed,
+        "citation": fema.CITATION, "failed_runs_count_as": failed, "window": window,
         "runs": [p["id"] for p in plan]})
     frag = json.loads((out / "fragility.json").read_text())
     n_ok = sum(r["status"] == "ok" for r in rows)
