@@ -68,6 +68,98 @@ def _lu_solve1(Lp, Li, Lx, Up, Ui, Ux, perm_r, perm_c, b, x, y):
         x[i] = y[perm_c[i]]
 
 
+@njit(cache=True)
+def _fwd1(Lp, Li, Lx, perm_r, b, y):
+    """Forward half of a solve: y = L^-1 Pr b (permuted space)."""
+    n = b.shape[0]
+    for i in range(n):
+        y[perm_r[i]] = b[i]
+    for j in range(n):
+        yj = y[j] / Lx[Lp[j]]
+        y[j] = yj
+        for q in range(Lp[j] + 1, Lp[j + 1]):
+            y[Li[q]] -= Lx[q] * yj
+
+
+@njit(cache=True)
+def _bwd1(Up, Ui, Ux, perm_c, z, x):
+    """Backward half: x = Pc U^-1 z (z is overwritten)."""
+    n = z.shape[0]
+    for j in range(n - 1, -1, -1):
+        zj = z[j] / Ux[Up[j + 1] - 1]
+        z[j] = zj
+        for q in range(Up[j], Up[j + 1] - 1):
+            z[Ui[q]] -= Ux[q] * zj
+    for i in range(n):
+        x[i] = z[perm_c[i]]
+
+
+@njit(cache=True)
+def _fwd_part(Lp, Li, Lx, cols, rows_in, b, y):
+    """L^-1 applied to right-hand sides supported on the rows ``rows_in`` (positions in the
+    permuted space, b (len(rows_in), k)); only the columns ``cols`` (ascending: the closure of
+    rows_in under the structure of L, which holds every nonzero of the result) are visited.
+    y (n, k) must be zero outside ``cols`` on entry; on return y[cols] is L^-1 (scattered b)."""
+    k = b.shape[1]
+    for a in range(rows_in.shape[0]):
+        for r in range(k):
+            y[rows_in[a], r] += b[a, r]
+    for a in range(cols.shape[0]):
+        j = cols[a]
+        d = Lx[Lp[j]]
+        for r in range(k):
+            y[j, r] /= d
+        for q in range(Lp[j] + 1, Lp[j + 1]):
+            i = Li[q]
+            lv = Lx[q]
+            for r in range(k):
+                y[i, r] -= lv * y[j, r]
+
+
+@njit(cache=True)
+def _bwd_part(Urp, Urj, Urx, rows, z, w):
+    """U^-1 z on the positions ``rows`` only (descending; closed under the row structure of U,
+    so every entry they need is among them): U (CSR, diagonal first in each row)."""
+    k = z.shape[1]
+    for a in range(rows.shape[0]):
+        j = rows[a]
+        for r in range(k):
+            w[j, r] = z[j, r]
+        for q in range(Urp[j] + 1, Urp[j + 1]):
+            i = Urj[q]
+            uv = Urx[q]
+            for r in range(k):
+                w[j, r] -= uv * w[i, r]
+        d = Urx[Urp[j]]
+        for r in range(k):
+            w[j, r] /= d
+
+
+@njit(cache=True)
+def _closure(p, idx, start):
+    """Positions reachable from ``start`` through the compressed structure (p, idx) (each
+    column/row lists positions after itself), as a boolean mask."""
+    n = p.shape[0] - 1
+    mark = np.zeros(n, np.bool_)
+    stack = np.empty(n, np.int64)
+    top = 0
+    for s in start:
+        if not mark[s]:
+            mark[s] = True
+            stack[top] = s
+            top += 1
+    while top > 0:
+        top -= 1
+        j = stack[top]
+        for q in range(p[j], p[j + 1]):
+            i = idx[q]
+            if i != j and not mark[i]:
+                mark[i] = True
+                stack[top] = i
+                top += 1
+    return mark
+
+
 class SparseFactor:
     """Direct factorisation of a sparse (ndof x ndof) matrix.
 
@@ -83,18 +175,26 @@ class SparseFactor:
                           options=dict(SymmetricMode=True))
         else:
             lu = spl.splu(A, permc_spec="MMD_AT_PLUS_A")
-        self._lu = lu
         self.shape = A.shape
         self.fast = fast
+        self._part = None
         if fast:
             L = lu.L.tocsc()
             U = lu.U.tocsc()
             L.sort_indices()
             U.sort_indices()
-            self._L = (L.indptr.astype(np.int64), L.indices.astype(np.int64), L.data)
-            self._U = (U.indptr.astype(np.int64), U.indices.astype(np.int64), U.data)
+            # int32 indices (n, nnz < 2^31 here): a solve streams L and U, a quarter less
+            self._L = (L.indptr.astype(np.int32), L.indices.astype(np.int32), L.data)
+            self._U = (U.indptr.astype(np.int32), U.indices.astype(np.int32), U.data)
             self._pr = lu.perm_r.astype(np.int64)
             self._pc = lu.perm_c.astype(np.int64)
+            self._lu = None                  # SuperLU's own copy of the factors is not kept
+        else:
+            self._lu = lu
+
+    @property
+    def nnz(self) -> int:
+        return int(self._L[2].size + self._U[2].size) if self.fast else -1
 
     def solve(self, b):
         if not self.fast:
@@ -104,9 +204,74 @@ class SparseFactor:
             x = np.empty_like(b)
             _lu_solve1(*self._L, *self._U, self._pr, self._pc, b, x, np.empty_like(b))
             return x
-        vec = False
         b2 = np.ascontiguousarray(b.reshape(b.shape[0], -1))
         x = np.empty_like(b2)
         y = np.empty_like(b2)
         _lu_solve(*self._L, *self._U, self._pr, self._pc, b2, x, y)
-        return x[:, 0] if vec else x
+        return x
+
+    # ---- split and partial solves (condensed interface solver, issue #15) ---------------
+    # A^-1 = Pc U^-1 L^-1 Pr.  Right-hand sides supported on a few DOFs ("interface") reach
+    # only the closure of their rows under the structure of L; a solution wanted at those DOFs
+    # only needs the closure of their positions under the structure of U (the etree ancestors).
+    def restrict(self, dofs):
+        """Prepare ``forward_sparse``, ``backward_at`` and ``solve_at`` for the original indices
+        ``dofs`` (sorted, unique); returns self."""
+        if not self.fast:
+            raise ValueError("SparseFactor.restrict needs fast=True")
+        dofs = np.asarray(dofs, np.int64)
+        Lp, Li, _ = self._L
+        Up, Ui, Ux = self._U
+        rin = self._pr[dofs]
+        fcols = np.flatnonzero(_closure(Lp, Li, rin))
+        Ur = sp.csc_matrix((Ux, Ui, Up), shape=self.shape).tocsr()
+        Ur.sort_indices()
+        Ur = (Ur.indptr.astype(np.int32), Ur.indices.astype(np.int32), Ur.data)
+        qout = self._pc[dofs]
+        brows = np.flatnonzero(_closure(Ur[0], Ur[1], qout))[::-1].copy()
+        self._part = dict(dofs=dofs, rin=rin, fcols=fcols, Ur=Ur, qout=qout, brows=brows)
+        return self
+
+    def partial_fraction(self) -> tuple[float, float]:
+        """Share of L's and of U's entries that the partial forward / backward solves visit."""
+        pt = self._part
+        Lp = self._L[0]
+        Urp = pt["Ur"][0]
+        f = float(np.sum(Lp[pt["fcols"] + 1] - Lp[pt["fcols"]])) / self._L[2].size
+        b = float(np.sum(Urp[pt["brows"] + 1] - Urp[pt["brows"]])) / self._U[2].size
+        return f, b
+
+    def forward(self, b):
+        """z = L^-1 Pr b (the first half of ``solve``; permuted space)."""
+        b = np.asarray(b, dtype=np.float64)
+        z = np.empty_like(b)
+        _fwd1(*self._L, self._pr, b, z)
+        return z
+
+    def backward(self, z):
+        """x = Pc U^-1 z (the second half of ``solve``); z is not modified."""
+        zz = np.array(z, dtype=np.float64)
+        x = np.empty_like(zz)
+        _bwd1(*self._U, self._pc, zz, x)
+        return x
+
+    def backward_at(self, z):
+        """(Pc U^-1 z)[dofs] for z (n,) or (n, k), visiting only the closure of the dofs."""
+        pt = self._part
+        z2 = z.reshape(z.shape[0], -1)
+        w = np.empty_like(z2)
+        _bwd_part(*pt["Ur"], pt["brows"], z2, w)
+        out = w[pt["qout"]]
+        return out[:, 0] if z.ndim == 1 else out
+
+    def forward_sparse(self, bd):
+        """L^-1 Pr b for b zero outside ``dofs`` with b[dofs] = bd ((m,) or (m, k))."""
+        pt = self._part
+        b2 = np.ascontiguousarray(np.asarray(bd, np.float64).reshape(pt["dofs"].size, -1))
+        z = np.zeros((self.shape[0], b2.shape[1]))
+        _fwd_part(*self._L, pt["fcols"], pt["rin"], b2, z)
+        return z[:, 0] if np.ndim(bd) == 1 else z
+
+    def solve_at(self, bd):
+        """(A^-1 b)[dofs] for b zero outside ``dofs`` (b[dofs] = bd, (m,) or (m, k))."""
+        return self.backward_at(self.forward_sparse(bd))
