@@ -1,10 +1,11 @@
 """3D direct shear test of a joint in scikit-fem: two concrete blocks (tetrahedra) joined by
 the interface law, under a constant normal pressure p, then sheared in several directions.
 
-The bottom block's base is fixed; the top block's top face carries the pressure p (load control,
-u_z free) and is moved horizontally (u_x, u_y prescribed). The blocks share no node: the gap at
-the Gauss points of the joint is g = (u_z, u_x, u_y)_top - (u_z, u_x, u_y)_bottom, 3D gaps
-(g_N, g_T1, g_T2). Newton with the law's consistent tangent (unsymmetric once sliding).
+The bottom block's base is fixed; the top block's top face is a rigid platen that carries the
+normal force p A (load control) and is moved horizontally (u_x, u_y prescribed), as in a shear
+box. The blocks share no node: the gap at the Gauss points of the joint is
+g = (u_z, u_x, u_y)_top - (u_z, u_x, u_y)_bottom, 3D gaps (g_N, g_T1, g_T2). Newton with the
+law's consistent tangent (unsymmetric once sliding).
 
 Expected: the shear force first rises to the cohesive peak tau_max l_Nc/l_Tc times the area
 (docs/decisions.md §1.1), the joint debonds, and then slides on the Coulomb plateau

@@ -207,3 +207,84 @@ def test_a_c_host_calls_the_function_pointer(tmp_path):
     # on the increment at lambda_max = 0.2 (the 20th of 150): 1e-12
     assert D == pytest.approx(COH.G_I, rel=1e-10)
     assert peak.value == pytest.approx(COH.sigma_max, rel=1e-12)
+
+
+EMBED_C = r"""
+#include <Python.h>
+#include <stdint.h>
+#include <stdio.h>
+typedef int32_t (*law_fn)(int64_t, int64_t, const double *, double, const double *,
+                          const double *, const double *, const double *, const double *,
+                          const double *, double *, double *, double *, double *, double *,
+                          double *, double *);
+
+/* A native program (no Python around it): it starts an embedded interpreter once to build the
+   law and get the function pointer, then drives one point in mode I in plain C, with the GIL
+   released (the C function needs neither the GIL nor any Python object). */
+int main(void)
+{
+    Py_Initialize();
+    if (PyRun_SimpleString(
+            "from interfacelaw import CohesiveParams, InterfaceLaw, cabi\n"
+            "law = InterfaceLaw(CohesiveParams.from_fracture_energy(3e6, 2e6, 250.0, 0.2, 1.5))\n"
+            "address = cabi.evaluate_cfunc(law).address\n"
+            "params = cabi.pack_params(law).tolist()\n") != 0)
+        return 2;
+    PyObject *main = PyImport_AddModule("__main__");
+    PyObject *addr = PyObject_GetAttrString(main, "address");
+    PyObject *plist = PyObject_GetAttrString(main, "params");
+    law_fn f = (law_fn)PyLong_AsVoidPtr(addr);
+    double params[256];
+    Py_ssize_t np_ = PyList_Size(plist);
+    if (np_ > 256) return 3;
+    for (Py_ssize_t i = 0; i < np_; ++i) params[i] = PyFloat_AsDouble(PyList_GetItem(plist, i));
+
+    double gap[2] = {0.0, 0.0}, kappa = 0, damage = 0, sep = 0, slip = 0, diss = 0, peak = 0;
+    double F[2], T[4], kn, dn, sn, sln, dsn;
+    double l_Nc = params[2];                           /* the cohesive block: sigma, tau, l_Nc */
+    int32_t rc = 0;
+    Py_BEGIN_ALLOW_THREADS
+    for (int k = 1; k <= 150 && rc == 0; ++k) {
+        gap[0] = 1.5 * l_Nc * k / 150;
+        rc = f(1, 2, params, 1.0, gap, &kappa, &damage, &sep, &slip, &diss,
+               F, T, &kn, &dn, &sn, &sln, &dsn);
+        kappa = kn; damage = dn; sep = sn; slip = sln; diss = dsn;          /* commit */
+        if (F[0] > peak) peak = F[0];
+    }
+    Py_END_ALLOW_THREADS
+    printf("%d %.17g %.17g\n", rc, diss, peak);
+    Py_DECREF(addr);
+    Py_DECREF(plist);
+    return Py_FinalizeEx() < 0 ? 4 : 0;
+}
+"""
+
+
+def test_a_native_program_embedding_python_calls_the_law(tmp_path):
+    """What a C or Fortran code does: embed Python once, take the pointer, loop in C."""
+    import os
+    import sys
+    import sysconfig
+    from pathlib import Path
+
+    cc = shutil.which("cc") or shutil.which("gcc")
+    inc, libdir = sysconfig.get_paths()["include"], sysconfig.get_config_var("LIBDIR")
+    ver = sysconfig.get_config_var("LDVERSION") or sysconfig.get_python_version()
+    if cc is None or not (Path(inc) / "Python.h").exists() or not libdir \
+            or not sysconfig.get_config_var("Py_ENABLE_SHARED"):
+        pytest.skip("no C compiler, Python headers or shared libpython")
+    (tmp_path / "host.c").write_text(EMBED_C)
+    exe = tmp_path / "host"
+    subprocess.run([cc, "-O2", str(tmp_path / "host.c"), f"-I{inc}", f"-L{libdir}",
+                    f"-lpython{ver}", f"-Wl,-rpath,{libdir}", "-o", str(exe)], check=True)
+    root = Path(__file__).resolve().parents[1]
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join(
+        [str(root)] + [p for p in sys.path if p.endswith("site-packages")]))
+    out = subprocess.run([str(exe)], env=env, capture_output=True, text=True, timeout=300)
+    assert out.returncode == 0, out.stderr
+    rc, D, peak = out.stdout.split()
+    # as in the ctypes C host: G_I exactly (1e-10: rounding of 150 additions), peak sigma_max
+    # on the increment at lambda_max (1e-12)
+    assert int(rc) == 0
+    assert float(D) == pytest.approx(COH.G_I, rel=1e-10)
+    assert float(peak) == pytest.approx(COH.sigma_max, rel=1e-12)
