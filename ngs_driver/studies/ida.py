@@ -211,12 +211,15 @@ def _probe(model, base=slice(None)):
     w = np.asarray(model.interface.w, float)[base]
     W = float(w.sum())
     cx = model.crest_dofs[0]
-    rec = {"static_slip": 0.0, "slip": [], "crest_ux": []}
+    rec = {"static_slip": None, "slip": [], "crest_ux": []}
 
     class _Probe(cls):
         def static(self, *a, **k):
+            # the (last) static state before the shaking: later static solves (the
+            # post-earthquake check of SAFETY) must not move the reference
             r = super().static(*a, **k)
-            rec["static_slip"] = float(np.dot(w, self.g[base, 1]) / W)
+            if not rec["slip"]:
+                rec["static_slip"] = float(np.dot(w, self.g[base, 1]) / W)
             return r
 
         def step(self, *a, **k):
@@ -249,7 +252,7 @@ def demand_measures(summary: dict | None, rec: dict, model, base=slice(None)) ->
     w = np.asarray(model.interface.w, float)[base]
     y = np.asarray(model.interface.y if hasattr(model.interface, "y") else [0.0], float)
     height = float(model.crest_point[1] - np.min(y))
-    slip = np.asarray(rec["slip"], float) - rec["static_slip"]
+    slip = np.asarray(rec["slip"], float) - (rec["static_slip"] or 0.0)
     d = {k: None for k in DEMANDS}
     if slip.size:
         d["slip_max_m"] = float(np.max(np.abs(slip)))
