@@ -47,7 +47,8 @@ class ModalResult:
 def modal_analysis(model, n_modes: int = 6, k0_normal: float = 9.0e10,
                    k0_tangential: float = 9.0e10) -> ModalResult:
     """First ``n_modes`` natural frequencies [Hz] and M-normalised mode shapes of
-    (K + B^T diag(w k0) B) phi = omega^2 M phi  (shift-invert Lanczos at sigma = 0)."""
+    (K + B^T diag(w k0) B) phi = omega^2 M phi  (shift-invert Lanczos at sigma = 0).
+    k0_normal / k0_tangential: scalars or one value per interface point (several joints)."""
     Kb = (model.K + model.interface.stiffness(k0_normal, k0_tangential)).tocsc()
     M = model.M.tocsc()
     # a fixed start vector: ARPACK's random one changed the last bits of the frequencies (and so
@@ -63,7 +64,9 @@ def modal_analysis(model, n_modes: int = 6, k0_normal: float = 9.0e10,
     f = np.sqrt(np.maximum(lam, 0.0)) / (2 * math.pi)
     Lx = V.T @ (M @ model.r_x)
     Ly = V.T @ (M @ model.r_y)
-    return ModalResult(f, V, float(k0_normal), float(k0_tangential), Lx ** 2, Ly ** 2)
+    # the interface stiffness may differ per joint (per point): report the base's (point 0)
+    return ModalResult(f, V, float(np.ravel(k0_normal)[0]), float(np.ravel(k0_tangential)[0]),
+                       Lx ** 2, Ly ** 2)
 
 
 def rayleigh_coefficients(f_a: float, f_b: float, ratio: float = 0.05) -> tuple[float, float]:
@@ -126,8 +129,11 @@ def run_modal(scene, out_dir=None, n_modes: int = 6, model=None):
     d = scene.damping
     damp = damping_from_modes(res, d.ratio, d.modes, d.frequencies or None)
     out = Path(out_dir if out_dir is not None else scene.output.dir)
-    write_modal_json(out / "modal.json", res, damp,
-                     {"scene": scene.name, "nfree": md.nfree})
+    extra = {"scene": scene.name, "nfree": md.nfree}
+    if getattr(md, "reservoir", None) is not None:          # docs/decisions.md "Reservoir"
+        from .reservoir import modal_extra
+        extra["reservoir"] = modal_extra(md, scene, kn, kt, out)
+    write_modal_json(out / "modal.json", res, damp, extra)
     return md, res, damp
 
 

@@ -29,6 +29,7 @@ import numpy as np
 
 from ..out.files import atomic_savez, atomic_write_json, environment_info
 from ..setup import FORMULATION, characteristic_times, law_parts, validate
+from ..solve.joint_laws import initial_stiffness
 from .checkpoint import Checkpointer
 from .energy import EnergyBudget
 from .joints import JointSet
@@ -49,7 +50,7 @@ def run(scene, outdir=None, resume: bool = False, progress: bool = True,
     checkpoint written if one is due (test hook for stop/resume).  model: a prebuilt model
     of this scene (tests).  plots: False skips PNG/VTK output (tests)."""
     from ..fe.modal import damping_from_modes, k0_from_scene, modal_analysis
-    from ..out import files as outfiles
+    from ..out.results import write_run_outputs
     from ..out import vtk as outvtk
     from ..out.report import format_summary
     from ..solve.newmark import NewmarkSolver, SolverError
@@ -93,7 +94,8 @@ def run(scene, outdir=None, resume: bool = False, progress: bool = True,
     assert abs(kn_s - k0n) <= 1e-9 * k0n and abs(kt_s - k0t) <= 1e-9 * k0t
 
     t = time.perf_counter()
-    modal = modal_analysis(model, 6, k0n, k0t)
+    k0p = initial_stiffness(joints.solver_law(), iface.npts)    # each joint its own k0
+    modal = modal_analysis(model, 6, k0p[:, 0], k0p[:, 1])
     d = scene.damping
     damp = damping_from_modes(modal, d.ratio, d.modes, d.frequencies or None)
     # ARPACK's random start vector changes the last bits of the eigenvalues from call to call:
@@ -159,7 +161,12 @@ def run(scene, outdir=None, resume: bool = False, progress: bool = True,
         t = time.perf_counter()
         rep, f_static = safety.solve_static(solver, f_base)
         t_static = time.perf_counter() - t
-        solver.initial_acceleration(f_static - Mrx * ax[0] - Mry * ay[0])
+        if scene.geometry.foundation == "massless":      # M singular on the rock (#13)
+            from ..fe.foundation import initial_acceleration, massless_dofs
+            initial_acceleration(solver, f_static - Mrx * ax[0] - Mry * ay[0],
+                                 massless_dofs(model.M), damp["a1"])
+        else:
+            solver.initial_acceleration(f_static - Mrx * ax[0] - Mry * ay[0])
         st = solver.state
         u_static = solver.u.copy()
         tr = solver.t[base]
@@ -304,7 +311,7 @@ def run(scene, outdir=None, resume: bool = False, progress: bool = True,
     # ---- outputs -------------------------------------------------------------------------
     H = hist.arrays()
     t_out = time.perf_counter()
-    files = outfiles.write_run_outputs(out, model, scene, gm, H, snaps, solver, u_static,
+    files = write_run_outputs(out, model, scene, gm, H, snaps, solver, u_static,
                                        joints, plots=plots, heel=heel)
     if vtk is not None:
         files.extend(vtk.files())
