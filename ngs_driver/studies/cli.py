@@ -10,6 +10,7 @@ Exit codes: 0 done (physical solver failures are results), 1 some runs ended in 
 """
 from __future__ import annotations
 
+import argparse
 import sys
 
 from . import fema
@@ -18,7 +19,8 @@ from . import fema
 def add_ida_parser(sub):
     p = sub.add_parser("ida", help="incremental dynamic analysis over a FEMA P695 record suite "
                                    "on Dask -> ida.csv, fragility.json, PNGs",
-                       description=__doc__)
+                       description=__doc__,
+                       formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("scene", help="shipped scene name (e.g. koyna) or path to a .toml file")
     p.add_argument("--set", action="append", default=[], dest="overrides", metavar="KEY=VALUE",
                    help="override a scene key (repeatable), e.g. --set time.duration=0.1")
