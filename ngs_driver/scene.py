@@ -40,7 +40,9 @@ class Geometry:
                         "counter-clockwise from the heel (0, 0), base on y = 0")
     profile_file: str = _f("", doc="CSV with two columns x, y (replaces profile); a relative "
                            "path is taken from the scene file's folder")
-    foundation: str = _f("rock", choices=("rock", "rigid"))
+    foundation: str = _f("rock", choices=("rock", "rigid", "massless", "massed"),
+                         doc="rigid (no rock), massless (rock stiffness without mass) or massed "
+                             "rock block; 'rock' is the alias of 'massed' (docs/decisions.md §9)")
     extent_up: float = _f(1.0, lo=0.1, hi=10.0, doc="rock extent upstream / base width")
     extent_down: float = _f(1.0, lo=0.1, hi=10.0, doc="rock extent downstream / base width")
     extent_depth: float = _f(1.0, lo=0.1, hi=10.0, doc="rock depth / base width")

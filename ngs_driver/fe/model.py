@@ -211,6 +211,12 @@ def build_model(foundation: str = "rock", order: int = 1, gauss_points: int = 3,
         raise ValueError(f"gauss_points={gauss_points}: must be >= 1")
     # reservoir: a scene [reservoir] table (fe/reservoir.py; none -> nothing is built)
     reservoir = mesh_kw.pop("reservoir", None)
+    # issue #13: "massed" is the rock block ("rock" its alias); "massless" the same block
+    # without mass (docs/decisions.md §9)
+    foundation_name = foundation
+    massless = foundation == "massless"
+    if foundation in ("massed", "massless"):
+        foundation = "rock"
     joints = tuple(sorted(joints, key=lambda j: j.elevation))
     if mesh is None:
         if section is None:
@@ -278,7 +284,7 @@ def build_model(foundation: str = "rock", order: int = 1, gauss_points: int = 3,
     for uu, vv, reg in zip(trial, test, regions):
         mat = mats[reg]
         a += ngs.InnerProduct(sigma(uu, mat), ngs.Sym(ngs.Grad(vv))) * ngs.dx(reg)
-        m += mat.rho * uu * vv * ngs.dx(reg)
+        m += (0.0 if massless and reg == "rock" else mat.rho) * uu * vv * ngs.dx(reg)
     a.Assemble()
     m.Assemble()
     K = restrict(to_scipy(a.mat))
@@ -362,7 +368,7 @@ def build_model(foundation: str = "rock", order: int = 1, gauss_points: int = 3,
                                             boundary=j.name, name=j.name))
     iface = base if len(joint_ifaces) == 1 else stack_interfaces(joint_ifaces)
 
-    return Model(mesh=mesh, info=mesh_info, fes=fes, foundation=foundation, order=order,
+    return Model(mesh=mesh, info=mesh_info, fes=fes, foundation=foundation_name, order=order,
                  free=free, K=K, M=M, f_gravity=f_gravity, f_water=f_water, r_x=r_x,
                  r_y=r_y, interface=iface, crest_dofs=crest_dofs, dam_dofs=dam_dofs,
                  materials=mats, gravity=gravity, reservoir_level=reservoir_level,
