@@ -188,7 +188,6 @@ class Output:
 @dataclass(frozen=True)
 class Solver:
     tol_residual: float = _f(1e-8, lo=0.0, hi=1.0, lo_open=True)
-    tol_increment: float = _f(1e-10, lo=0.0, hi=1.0, lo_open=True)
     max_iter: int = _f(30, lo=1, hi=10000)
     min_dt: float = _f(1e-6, lo=0.0, hi=1.0, lo_open=True)
 
