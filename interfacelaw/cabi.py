@@ -121,8 +121,10 @@ def _compile(contact: bool, friction: bool, damage: bool):
                     return 2
         s = carray(slip, (n, dim - 1))
         s_n = carray(slip_n, (n, dim - 1))
-        if not friction:                         # the kernel leaves the slip alone then
-            s_n[:, :] = s
+        if not friction:         # the kernel leaves the slip alone then (loops: a slice
+            for i in range(n):   # assignment costs ~15 s more to compile)
+                for a in range(dim - 1):
+                    s_n[i, a] = s[i, a]
         kernel(g, coh_of(p), con_of(p), fri_of(p), dmg_of(p), rdt,
                carray(kappa, n), carray(dmg, n), carray(sep, n), s, carray(diss, n),
                carray(F, (n, dim)), carray(T, (n, dim, dim)),
