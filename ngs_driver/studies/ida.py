@@ -689,6 +689,7 @@ def _plots(out, rows, frag, im) -> list[str]:
                         color=ln.get_color())
         ax.set_xlabel(lab)
         ax.set_ylabel(IM_LABEL[im])
+        ax.ticklabel_format(axis="x", style="sci", scilimits=(-2, 3))
         ax.grid(alpha=0.3)
     if len(groups) <= 12:
         axs[0].legend(fontsize=7)
