@@ -157,3 +157,30 @@ def test_crack_dependent_uplift_is_a_fixed_point_of_each_step(rigid_model, in_cr
     assert crack_measures(s.state, it.w)[1] > a0 + 20.0
     assert saf.fixed_point_iterations > 0 and saf.fixed_point_unconverged == 0
     assert np.array_equal(saf.uplift.pressure(s.state), saf.uplift.p)
+
+
+def test_post_earthquake_without_equilibrium_reports_the_resultants(rigid_model):
+    """A base debonded over its whole length (friction 0.3, dry crack: in_crack = zero) cannot
+    hold the reservoir: 0.3 W < T. The post-earthquake solve must say so (Newton's gap residual,
+    relative to |g|, could otherwise accept a runaway slip), keep the final state, and give
+    FS = f W / T from the load resultants (1e-12: sums of the assembled load vector)."""
+    sc = load_scene("koyna_smoke", RIGID + ["uplift.model=linear", "uplift.in_crack=zero"])
+    it = rigid_model.interface
+    joints = JointSet(sc, it)
+    s = NewmarkSolver(rigid_model.K, rigid_model.M, None, it.B, it.w, joints.solver_law(),
+                      dt=0.002, max_iter=30)
+    st = s.state.copy()
+    st.kappa[:] = 1.0
+    s.state = st
+    saf = Safety(sc, rigid_model, joints)
+    saf.set_dof_masks(rigid_model)
+    u0 = s.u.copy()
+    pe = saf.post_earthquake(s, rigid_model.f_gravity + rigid_model.f_water)
+    b = pe["joints"]["base"]
+    assert pe["converged"] is False and "no static equilibrium" in pe["note"]
+    assert np.array_equal(s.u, u0)
+    assert b["uplift_force"] == 0.0
+    assert b["normal_force"] == pytest.approx(W, rel=1e-12)
+    assert b["shear_force"] == pytest.approx(0.5 * RHO_G * H ** 2, rel=1e-12)
+    assert b["sliding_fs"] == pytest.approx(F * W / (0.5 * RHO_G * H ** 2), rel=1e-12)
+    assert b["meets_criterion"] is False

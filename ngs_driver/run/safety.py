@@ -235,18 +235,31 @@ class Safety:
         from ..solve.newmark import SolverError
 
         self.uplift.p = self.uplift.pressure(solver.state)
+        final = _snapshot(solver)
+        slip0 = self._mean_slips(solver.g)
         try:
             rep, p, f = self._solve(solver, solver.static, f_base_static, self.uplift.p,
                                     self.uplift.state_dependent)
+            # a frictional base that cannot hold the loads has no equilibrium, but Newton's
+            # gap residual is relative to |g| and can "converge" on a runaway slip: accept the
+            # solve only if the force balance holds and no joint slid beyond the run's
+            # small-displacement bound (time.stop_slip, or 0.05 m)
+            r = f - solver.K @ solver.u - solver._fint(solver.t)
+            dslip = np.abs(self._mean_slips(solver.g) - slip0).max()
+            if np.linalg.norm(r) > 1e-6 * np.linalg.norm(f) or dslip > self.slip_bound:
+                raise SolverError(f"the static solve slid {dslip:.3g} m (force residual "
+                                  f"{np.linalg.norm(r) / np.linalg.norm(f):.1e} relative)")
             self.uplift.p = p
             m = self.joint_measures(solver.t, solver.state, p)
             ok, note = True, "static solve from the final interface state"
             iters = int(rep.iterations)
         except SolverError as e:
+            _restore(solver, final)
+            self.uplift.p = self.uplift.pressure(solver.state)
             m = self._resultant_measures(solver, f_base_static)
             ok, iters = False, None
             note = (f"no static equilibrium from the final state ({e}); FS from the load "
-                    "resultants on the blocks above each joint: the dam slides")
+                    "resultants on the dam: the dam slides")
         joints = {}
         for name in self.joints.names:
             d = dict(m[name])
@@ -254,6 +267,14 @@ class Safety:
             joints[name] = d
         return {"converged": ok, "newton_iterations": iters, "criterion": FS_CRITERION,
                 "note": note, "joints": joints}
+
+    @property
+    def slip_bound(self) -> float:
+        return self.scene.time.stop_slip if self.scene.time.stop_slip > 0 else 0.05
+
+    def _mean_slips(self, g) -> np.ndarray:
+        w = self.joints.w
+        return np.array([np.dot(w[sl], g[sl, 1]) / w[sl].sum() for sl in self.joints.slices])
 
     def _resultant_measures(self, solver, f_base):
         """Joint forces from the loads when no static equilibrium exists (base only: the
