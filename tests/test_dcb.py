@@ -1,6 +1,5 @@
 """DCB (mode I) under displacement control: ngs_driver/dcb.py, verification/dcb_study.py."""
 import pathlib
-import sys
 
 import numpy as np
 import pytest
@@ -62,9 +61,8 @@ def test_dissipated_energy_at_full_separation():
     assert abs(res.P[-1]) < 1e-6 * res.P.max()
 
 
-def test_fast_study_table_lists_every_n(tmp_path):
-    sys.path.insert(0, str(ROOT / "verification"))
-    import dcb_study
+def test_fast_study_table_lists_every_n(tmp_path, study):
+    dcb_study = study("dcb_study")
 
     dcb_study.main(fast=True, outdir=tmp_path)
     text = (tmp_path / "dcb.md").read_text()

@@ -311,14 +311,9 @@ def test_response_spectrum_resonance_and_rigid_limit():
     assert S0 == pytest.approx(gm.peak()[0], rel=0.03)
 
 
-def test_plot_script_fast(tmp_path, capsys):
+def test_plot_script_fast(tmp_path, capsys, study):
     # in-process (a subprocess would pay numpy/scipy/matplotlib imports again)
-    import importlib.util
-
-    spec = importlib.util.spec_from_file_location("gm_plot", ROOT / "verification" / "ground_motion_plot.py")
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    out = mod.main(["--fast", "--out", str(tmp_path / "gm.png")])
+    out = study("ground_motion_plot").main(fast=True, outdir=tmp_path)
     assert out.stat().st_size > 10_000
     text = capsys.readouterr().out
     assert "SYNTHETIC" in text and "peaks: 0.49 g, 0.34 g" in text

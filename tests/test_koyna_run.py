@@ -191,17 +191,11 @@ def test_vtk_time_series_written(tmp_path):
     assert (tmp_path / "vtk" / "joint_base.pvd").read_text().count("<DataSet") == 2
 
 
-def test_energy_balance_study_fast(tmp_path):
+def test_energy_balance_study_fast(tmp_path, study):
     """verification/energy_balance.py --fast: the linear run closes the budget to round-off
     (measured 1.4e-11; 1e-9 allows the Newton tolerance 1e-8 on the gap), and the nonlinear
     residual shrinks with dt (1.7e-3 at 2 ms, 1.5e-3 at 1 ms measured)."""
-    import importlib.util
-    spec = importlib.util.spec_from_file_location(
-        "energy_balance", pathlib.Path(__file__).resolve().parents[1] / "verification"
-        / "energy_balance.py")
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    res = mod.main(fast=True, outdir=tmp_path)
+    res = study("energy_balance").main(fast=True, outdir=tmp_path)
     rows = res["rows"]
     assert rows["linear"]["residual"] < 1e-9
     assert rows["nonlinear dt=0.001"]["residual"] < rows["nonlinear dt=0.002"]["residual"] < 1e-2

@@ -22,9 +22,9 @@ import pytest
 pytest.importorskip("ngsolve")
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT / "verification"))
+sys.path.insert(0, str(ROOT))
 
-import koyna_studies as ks  # noqa: E402
+from verification import koyna_studies as ks  # noqa: E402  (the package, as conftest's study)
 
 
 @pytest.fixture(scope="module")

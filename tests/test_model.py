@@ -1,10 +1,6 @@
 """Tests of the linear Koyna model (ngs_driver.fe.geometry / model / modal)."""
 
 import math
-import os
-import subprocess
-import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -241,15 +237,10 @@ def test_classic_koyna_first_frequency():
     assert 2.4 < f[1] / f[0] < 2.9
 
 
-def test_verification_fast(tmp_path):
-    root = Path(__file__).resolve().parents[1]
-    env = dict(os.environ, OMP_NUM_THREADS="1")
-    p = subprocess.run([sys.executable, str(root / "verification" / "model_checks.py"),
-                        "--fast", "--out", str(tmp_path)], capture_output=True, text=True,
-                       env=env, timeout=120)
-    assert p.returncode == 0, p.stderr
+def test_verification_fast(tmp_path, study):
+    res = study("model_checks").main(fast=True, outdir=tmp_path)
     import json
-    res = json.loads((tmp_path / "model_checks.json").read_text())
+    assert json.loads((tmp_path / "model_checks.json").read_text())["fast"] is True
     for s in res["static"]:
         assert s["rel_err_vertical"] < 1e-8 and s["rel_err_horizontal"] < 1e-8
     # frequencies decrease monotonically under refinement (P1 is an upper bound)

@@ -1,21 +1,12 @@
 """Fast version of verification/newmark_checks.py (examples as tests)."""
-import importlib.util
 import pathlib
 import re
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 
 
-def _load():
-    spec = importlib.util.spec_from_file_location("newmark_checks",
-                                                  ROOT / "verification" / "newmark_checks.py")
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    return mod
-
-
-def test_energy_conserved_and_second_order(tmp_path):
-    text = _load().main(fast=True, outdir=tmp_path)
+def test_energy_conserved_and_second_order(tmp_path, study):
+    text = study("newmark_checks").main(fast=True, outdir=tmp_path)
     drift = float(re.search(r"max \|E - E0\|/E0 = ([0-9.e+-]+)", text).group(1))
     # average acceleration conserves the energy of an undamped linear system exactly: only
     # round-off remains (200 steps: ~1e-13 measured), so 1e-10 would catch any damping bug

@@ -261,14 +261,8 @@ def test_characteristic_times_and_length_koyna():
         characteristic_length(E, 250.0, float("nan"))
 
 
-def test_verification_script_fast(tmp_path):
-    import importlib.util
-    import pathlib
-    path = pathlib.Path(__file__).parents[1] / "verification" / "scaling_plots.py"
-    spec = importlib.util.spec_from_file_location("scaling_plots", path)
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    mod.main(["--fast", "--out", str(tmp_path)])
+def test_verification_script_fast(tmp_path, study):
+    study("scaling_plots").main(fast=True, outdir=tmp_path)
     for name in ("scaling_fig1.png", "scaling_friction.png", "scaling_lengths.png",
                  "scaling_times.png", "scaling.md"):
         assert (tmp_path / name).stat().st_size > 0

@@ -21,11 +21,14 @@ if str(ROOT) not in sys.path:
 from ngs_driver.setup.ground_motion import G, load_default, response_spectrum, significant_duration  # noqa: E402
 
 
-def main(argv=None) -> Path:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--fast", action="store_true", help="fewer periods, lower dpi")
-    ap.add_argument("--out", default=str(ROOT / "verification" / "out" / "ground_motion.png"))
-    args = ap.parse_args(argv)
+def main(fast: bool = False, outdir=None) -> Path:
+    """Writes ``outdir/ground_motion.png`` (default verification/out); returns its path."""
+    out = Path(outdir if outdir is not None else ROOT / "verification" / "out")
+    if out.suffix == ".png":                         # a file name was given
+        out.parent.mkdir(parents=True, exist_ok=True)
+    else:
+        out.mkdir(parents=True, exist_ok=True)
+        out = out / "ground_motion.png"
 
     import matplotlib
 
@@ -34,7 +37,7 @@ def main(argv=None) -> Path:
 
     gm = load_default()
     v, d = gm.integrate()
-    periods = np.geomspace(0.05, 3.0, 15) if args.fast else np.geomspace(0.02, 3.0, 120)
+    periods = np.geomspace(0.05, 3.0, 15) if fast else np.geomspace(0.02, 3.0, 120)
     sa_x = response_spectrum(gm.ax, gm.dt, periods, 0.05) / G
     sa_y = response_spectrum(gm.ay, gm.dt, periods, 0.05) / G
 
@@ -64,11 +67,10 @@ def main(argv=None) -> Path:
     axs[4].legend(fontsize=8)
     axs[4].set_title("5 %-damped pseudo-acceleration spectra (Newmark average acceleration) -- SYNTHETIC")
 
-    out = Path(args.out)
     if out.is_dir() or not out.suffix:          # a directory: write ground_motion.png in it
         out = out / "ground_motion.png"
     out.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(out, dpi=50 if args.fast else 120)
+    fig.savefig(out, dpi=50 if fast else 120)
     plt.close(fig)
 
     t5x, t95x = significant_duration(gm.ax, gm.dt)
@@ -82,4 +84,8 @@ def main(argv=None) -> Path:
 
 
 if __name__ == "__main__":
-    main()
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--fast", action="store_true", help="the quick version (seconds)")
+    ap.add_argument("--out", default=None, help="output folder (default verification/out)")
+    a = ap.parse_args()
+    main(fast=a.fast, outdir=a.out)

@@ -80,15 +80,11 @@ def convergence(label, hs, n_modes=4, **kw) -> dict:
     return {"label": label, "rows": rows, "observed_order": order}
 
 
-def main(argv=None) -> dict:
-    ap = argparse.ArgumentParser()
-    ap.add_argument("--fast", action="store_true", help="coarse meshes, a few seconds")
-    ap.add_argument("--out", default=str(OUT))
-    a = ap.parse_args(argv)
-    out = Path(a.out)
+def main(fast: bool = False, outdir=None) -> dict:
+    out = Path(outdir if outdir is not None else OUT)
     out.mkdir(parents=True, exist_ok=True)
-    coarse = dict(h_heel=1.0, heel_zone=0.0, growth=1.5) if a.fast else {}
-    if a.fast:
+    coarse = dict(h_heel=1.0, heel_zone=0.0, growth=1.5) if fast else {}
+    if fast:
         stat = [static_check("rock", h_coarse=10.0, h_interface=5.0, **coarse),
                 static_check("rigid", h_coarse=10.0, h_interface=5.0, **coarse)]
         hs = [16.0, 8.0, 4.0]
@@ -98,10 +94,10 @@ def main(argv=None) -> dict:
     conv = [convergence("classic Koyna, rigid base (E=31.027 GPa, rho=2643)", hs,
                         foundation="rigid", dam=CLASSIC_KOYNA, reservoir_level=0.0,
                         h_heel=min(hs[-1], 1.0), heel_zone=0.0, growth=1.5),
-            convergence("paper dam on rock (E=50 GPa)", hs[:-1] if not a.fast else hs,
+            convergence("paper dam on rock (E=50 GPa)", hs[:-1] if not fast else hs,
                         foundation="rock", dam=PAPER_DAM, h_heel=1.0, heel_zone=0.0,
                         growth=1.5)]
-    res = {"fast": a.fast, "static": stat, "convergence": conv}
+    res = {"fast": fast, "static": stat, "convergence": conv}
     (out / "model_checks.json").write_text(json.dumps(res, indent=2))
     lines = ["# Linear model checks", ""]
     for s in stat:
@@ -121,4 +117,8 @@ def main(argv=None) -> dict:
 
 
 if __name__ == "__main__":
-    main()
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--fast", action="store_true", help="the quick version (seconds)")
+    ap.add_argument("--out", default=None, help="output folder (default verification/out)")
+    a = ap.parse_args()
+    main(fast=a.fast, outdir=a.out)

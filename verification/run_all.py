@@ -1,31 +1,34 @@
-"""Run every verification study (`make verify`; `--fast` for the quick versions used by tests).
+"""Run every verification study (`make verify`; `--fast` for the quick versions the tests run).
 
-Each study is a module in this folder with ``main(fast: bool, outdir: pathlib.Path)`` that writes
-its PNGs and a markdown section into ``outdir`` and returns a short summary string.
+Each study is a module of the ``verification`` package with ``main(fast: bool = False,
+outdir=None)`` that writes its tables and figures into ``outdir`` and returns its numbers.
 """
 from __future__ import annotations
 
 import argparse
 import importlib
-import inspect
 import pathlib
 import sys
 import time
 
 HERE = pathlib.Path(__file__).resolve().parent
-STUDIES = ["material_point", "scaling_plots", "ground_motion_plot", "model_checks",
-           "newmark_checks", "dcb_study", "koyna_studies"]
+ROOT = HERE.parent
+# in the order of the report; benchmarks (bench_koyna, write_benchmarks) run with `make bench`
+STUDIES = ["material_point", "damage_rate", "scaling_plots", "ground_motion_plot",
+           "model_checks", "newmark_checks", "energy_balance", "dcb_study", "reservoir",
+           "safety_column", "koyna_studies", "damage_rate_koyna"]
 
 
 def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__)
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--fast", action="store_true", help="quick versions (seconds)")
     ap.add_argument("--only", nargs="*", default=None, help="run only these studies")
     ap.add_argument("--out", default=str(HERE / "out"))
     a = ap.parse_args(argv)
     out = pathlib.Path(a.out)
     out.mkdir(parents=True, exist_ok=True)
-    sys.path.insert(0, str(HERE))
+    if str(ROOT) not in sys.path:
+        sys.path.insert(0, str(ROOT))
     failed = []
     for name in a.only or STUDIES:
         if not (HERE / f"{name}.py").exists():
@@ -33,16 +36,10 @@ def main(argv=None) -> int:
             continue
         t0 = time.perf_counter()
         try:
-            mod = importlib.import_module(name)
-            params = inspect.signature(mod.main).parameters
-            if "outdir" in params:
-                summary = mod.main(fast=a.fast, outdir=out)
-            else:                                   # argparse-style main(argv)
-                summary = mod.main((["--fast"] if a.fast else []) + ["--out", str(out)])
-            if not isinstance(summary, str):
-                summary = None
+            mod = importlib.import_module(f"verification.{name}")
+            summary = mod.main(fast=a.fast, outdir=out)
             print(f"[verify] {name}: done in {time.perf_counter() - t0:.1f} s")
-            if summary:
+            if isinstance(summary, str):
                 print(summary)
         except Exception as exc:  # report every study, then fail
             failed.append(name)
