@@ -214,12 +214,13 @@ def test_report_fields(model):
 
 
 @pytest.mark.parametrize("kw", [dict(lowrank_max=0),
-                                dict(lowrank_max=10 ** 6, reference_every=0, jacobian_tol=1e-2)])
+                                dict(lowrank_max=10 ** 6, reference_every=0, jacobian_tol=1e-2,
+                                     inner_max=6)])
 def test_reference_jacobian_paths_match_full(model, kw):
     """Interface Jacobian by a kept reference LU (issue #15): refactorised whenever any point
     changed (lowrank_max=0), or never refactorised after the first iteration (every changed
-    point through the Woodbury correction, a loose jacobian_tol so that the refinement does
-    work): both give the full Newton's answer to 1e-8 (the solver tolerance is 1e-11; the
+    point through the Woodbury correction, a loose jacobian_tol so that the iterative
+    refinement of the Newton direction does work): both give the full Newton's answer to 1e-8 (the solver tolerance is 1e-11; the
     condensed/full agreement measured ~1e-12)."""
     law = weak_law()
     sc, Uc, _ = run(model, law, "condensed", nsteps=30, tol_residual=1e-11, **kw)

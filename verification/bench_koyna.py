@@ -642,9 +642,198 @@ def ratios(res):
 
 
 # ---------------------------------------------------------------------------------------------
+# issue #15 (SPEED), targets 2-5
+# ---------------------------------------------------------------------------------------------
+NL_SET = ("ground_motion.scale=0.2",)
+LIN_SET = ("ground_motion.scale=0.001", "interface.damage=false")
+
+
+def cli_run(sets, tag) -> dict:
+    """`python -m ngs_driver run koyna --set ...` under /usr/bin/time -v: wall, CPU, peak RSS,
+    the run's own timings and solver totals, per-step walls."""
+    od = pathlib.Path(tempfile.mkdtemp(prefix=f"bench15_{tag}_"))
+    tf = od.parent / (od.name + ".time")
+    args = ["-m", "ngs_driver", "run", "koyna", "--out", str(od), "--quiet"]
+    for ov in sets:
+        args[4:4] = ["--set", ov]
+    timev = pathlib.Path("/usr/bin/time")
+    argv = ([str(timev), "-v"] if timev.exists() else []) + [sys.executable] + args
+    cmd = " ".join(["/usr/bin/time -v" if timev.exists() else "", "python"] + args)
+    l0 = loadavg()
+    with open(tf, "w") as fh:
+        p = subprocess.run(argv, stdout=subprocess.DEVNULL, stderr=fh, cwd=ROOT)
+    d = {"command": cmd.replace(str(od), "DIR"), "loadavg": [l0, loadavg()]}
+    if p.returncode != 0:
+        d["error"] = f"exit code {p.returncode}: {tf.read_text()[-1500:]}"
+        return d
+    d.update(parse_time_v(tf.read_text()))
+    sm = json.loads((od / "summary.json").read_text())
+    lines = [ln for ln in (od / "timeseries.csv").read_text().splitlines()
+             if ln and not ln.startswith("#")]
+    ts = np.genfromtxt(lines, delimiter=",", names=True)
+    d.update({"timings": sm["timings"], "solver_totals": sm["solver_totals"],
+              "n_steps": sm["n_steps"], "steps_done": int(len(ts["wall"])),
+              "stopped": sm.get("stopped"),
+              "per_step_median_ms": 1e3 * float(np.median(ts["wall"])),
+              "per_step_mean_ms": 1e3 * float(np.mean(ts["wall"])),
+              "newton_per_step": float(np.mean(ts["iterations"])),
+              "crest_ux": np.asarray(ts["crest_ux"]).tolist(),
+              "crest_ux_max": float(np.max(np.abs(ts["crest_ux"]))),
+              "n_active_max": int(np.max(ts["n_active"]))})
+    return d
+
+
+def part5(res, repeats=2):
+    """Target 2 (+ memory, target 4): the 0.2x run and the same run with an elastic interface,
+    interleaved, `repeats` times each; medians of the whole-run wall and of the dynamic wall."""
+    out = {"nonlinear_set": list(NL_SET), "linear_set": list(LIN_SET), "runs": []}
+    res["part5"] = out
+    for r in range(repeats):
+        for tag, sets in (("nonlinear", NL_SET), ("linear", LIN_SET)):
+            d = cli_run(sets, tag)
+            d["kind"] = tag
+            crest = d.pop("crest_ux", None)
+            if tag == "nonlinear" and crest is not None:
+                out.setdefault("crest_ux_first", crest)
+                a = np.asarray(out["crest_ux_first"])
+                b = np.asarray(crest)
+                if a.shape == b.shape:
+                    d["crest_rel_diff_vs_first"] = float(np.max(np.abs(a - b)) /
+                                                         np.max(np.abs(a)))
+            out["runs"].append(d)
+            print(f"[5] {tag} #{r}: wall {d.get('wall_s')} s, dynamic "
+                  f"{d.get('timings', {}).get('dynamic', float('nan')):.1f} s, "
+                  f"user {d.get('user_s')} s, RSS {d.get('peak_rss_MB', 0):.0f} MB", flush=True)
+            save(res)
+    out.pop("crest_ux_first", None)
+    summ = {}
+    for tag in ("nonlinear", "linear"):
+        rs = [x for x in out["runs"] if x["kind"] == tag and "wall_s" in x]
+        if rs:
+            summ[tag] = {k: float(np.median([f(x) for x in rs])) for k, f in (
+                ("wall_s", lambda x: x["wall_s"]), ("user_s", lambda x: x["user_s"]),
+                ("dynamic_s", lambda x: x["timings"]["dynamic"]),
+                ("per_step_median_ms", lambda x: x["per_step_median_ms"]),
+                ("peak_rss_MB", lambda x: x["peak_rss_MB"]))}
+    if len(summ) == 2:
+        summ["ratio_wall"] = summ["nonlinear"]["wall_s"] / summ["linear"]["wall_s"]
+        summ["ratio_dynamic"] = summ["nonlinear"]["dynamic_s"] / summ["linear"]["dynamic_s"]
+        summ["ratio_user"] = summ["nonlinear"]["user_s"] / summ["linear"]["user_s"]
+        summ["ratio_step_median"] = (summ["nonlinear"]["per_step_median_ms"]
+                                     / summ["linear"]["per_step_median_ms"])
+    out["summary"] = summ
+    save(res)
+
+
+def part6(res):
+    """Target 5: full intensity with the stop disabled (sliding over the whole base)."""
+    d = cli_run(("time.stop_slip=0",), "full_intensity")
+    d.pop("crest_ux", None)
+    res["part6"] = d
+    print(f"[6] full intensity: wall {d.get('wall_s')} s, per step median "
+          f"{d.get('per_step_median_ms', float('nan')):.1f} ms, cuts "
+          f"{d.get('solver_totals', {}).get('cuts')}", flush=True)
+    save(res)
+
+
+def step_pair(m, sc, a0a1, n_warm=10, n_meas=30, start=START):
+    """Nonlinear (scene law, the scene's record scale) and linear (elastic-branch law) steps of
+    the same model, interleaved: per-step medians [s], Newton iterations, active points."""
+    law = scene_law(sc)
+    fs, fk, _, _ = loads(m, sc, n_warm + n_meas + 1, start=start)
+    sn = make_solver(m, law, a0a1)
+    sl = make_solver(m, linear_law(sc), a0a1)
+    start_solver(sn, fs, fk)
+    start_solver(sl, fs, fk)
+    for k in range(1, n_warm + 1):
+        sn.step(fk(k))
+        sl.step(fk(k))
+    wn, wl, its = [], [], []
+    for k in range(n_warm + 1, n_warm + n_meas + 1):
+        r = sn.step(fk(k))
+        wn.append(r.wall)
+        its.append(r.iterations)
+        wl.append(sl.step(fk(k)).wall)
+    return {"nl_ms": 1e3 * float(np.median(wn)), "lin_ms": 1e3 * float(np.median(wl)),
+            "nl_mean_ms": 1e3 * float(np.mean(wn)), "newton_per_step": float(np.mean(its)),
+            "n_active": int(sn.history[-1].n_active), "lin_active": int(sl.history[-1].n_active),
+            "ratio": float(np.median(wn) / np.median(wl)), "stats": dict(sn.stats)}
+
+
+def part7(res, quick=False, n_meas=30):
+    """Target 3: time per step against interface points and DOFs, nonlinear and linear."""
+    base = ["ground_motion.scale=0.2"]
+    series = {"points": [[f"mesh.gauss_points={g}"] for g in (1, 3, 6, 12, 18)],
+              "dofs": [[f"mesh.h_coarse={h}"] for h in (4.0, 2.0, 1.0, 0.6)]}
+    if quick:
+        series = {"points": [["mesh.gauss_points=1"], ["mesh.gauss_points=2"]], "dofs": []}
+    out = res.setdefault("part7", {"series": {}})
+    for name, rows in series.items():
+        out["series"][name] = []
+        for ov in rows:
+            sc = scene(base + ov + (["mesh.h_coarse=10.0", "mesh.h_interface=5.0",
+                                     "mesh.h_heel=1.0", "mesh.heel_zone=2.0"] if quick else []))
+            t0 = time.perf_counter()
+            m = model_of(sc)
+            tb = time.perf_counter() - t0
+            a0a1 = rayleigh(m, sc)
+            la0 = loadavg()
+            row = step_pair(m, sc, a0a1, n_meas=n_meas if not quick else 3,
+                            n_warm=10 if not quick else 2)
+            row.update({"overrides": ov, "nfree": int(m.nfree), "npts": int(m.interface.npts),
+                        "build_s": tb, "loadavg": [la0, loadavg()]})
+            out["series"][name].append(row)
+            print(f"[7] {name} {ov}: {row['nfree']} DOFs, {row['npts']} pts: nonlinear "
+                  f"{row['nl_ms']:.2f} ms, linear {row['lin_ms']:.2f} ms, ratio "
+                  f"{row['ratio']:.2f}", flush=True)
+            save(res)
+            del m
+        rs = out["series"][name]
+        if len(rs) >= 2:
+            xk = "npts" if name == "points" else "nfree"
+            out[f"exponent_{name}_nonlinear"] = loglog_fit([r[xk] for r in rs],
+                                                           [r["nl_ms"] for r in rs])
+            out[f"exponent_{name}_linear"] = loglog_fit([r[xk] for r in rs],
+                                                        [r["lin_ms"] for r in rs])
+    save(res)
+    plot7(res)
+
+
+def plot7(res):
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    p7 = res.get("part7", {})
+    ser = p7.get("series", {})
+    fig, axs = plt.subplots(1, 2, figsize=(10, 4))
+    for ax, name, xk, xl in ((axs[0], "points", "npts", "interface points"),
+                             (axs[1], "dofs", "nfree", "free DOFs")):
+        rs = ser.get(name, [])
+        if not rs:
+            continue
+        x = [r[xk] for r in rs]
+        for key, lab in (("nl_ms", "nonlinear (0.2x, alpha = 2)"), ("lin_ms", "linear")):
+            kind = "nonlinear" if key == "nl_ms" else "linear"
+            ex = p7.get(f"exponent_{name}_{kind}")
+            ax.loglog(x, [r[key] for r in rs], "o-",
+                      label=lab + (f": ∝ n^{ex:.2f}" if ex is not None else ""))
+        ax.set_xlabel(xl)
+        ax.set_ylabel("ms per step (median)")
+        ax.grid(True, which="both", alpha=0.3)
+        ax.legend()
+    fig.suptitle("Koyna: time per implicit step (issue #15, target 3)")
+    fig.tight_layout()
+    OUT.mkdir(parents=True, exist_ok=True)
+    fig.savefig(OUT / "bench15_scaling.png", dpi=110)
+    plt.close(fig)
+
+
+# ---------------------------------------------------------------------------------------------
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--parts", default="1,2,3,4")
+    ap.add_argument("--parts", default="1,2,3,4",
+                    help="1-4: issue #7; 5: #15 target 2 + memory, 6: #15 target 5 (full "
+                         "intensity), 7: #15 target 3 (scaling)")
     ap.add_argument("--repeats", type=int, default=3)
     ap.add_argument("--alpha1", action="store_true", help="also the full run with alpha = 1")
     ap.add_argument("--default-stop", action="store_true",
@@ -677,6 +866,12 @@ def main(argv=None) -> int:
         part4(res, n=a.opensees_steps, model_c=shared["model"], a0a1=shared["a0a1"])
     if 1 in parts:
         part1(res, repeats=a.repeats)
+    if 5 in parts:
+        part5(res, repeats=a.repeats)
+    if 6 in parts:
+        part6(res)
+    if 7 in parts:
+        part7(res)
     ratios(res)
     res["loadavg_end"] = loadavg()
     save(res)

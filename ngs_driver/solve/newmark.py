@@ -48,6 +48,14 @@ from .sparse import SparseFactor
 __all__ = ["NewmarkSolver", "StepReport", "SolverError", "SparseFactor"]
 
 
+def _getrs(lu, b):
+    """LAPACK getrs on a scipy ``lu_factor`` result (without lu_solve's Python overhead)."""
+    x, info = sla.lapack.dgetrs(lu[0], lu[1], b)
+    if info != 0:
+        raise np.linalg.LinAlgError(f"dgetrs info {info}")
+    return x
+
+
 # duration given to rate-dependent laws for the static solve: the dead load and the reservoir
 # build up over months to years (impounding); one year [s]
 STATIC_DURATION = 3.15e7
@@ -533,15 +541,21 @@ class NewmarkSolver:
             self.stats["lowrank_points"] += m
 
         def Pinv(r):
-            x0 = sla.lu_solve(lu, r, check_finite=False)
+            x0 = _getrs(lu, r)
             if ch.size:
-                z = sla.lu_solve(Clu, np.einsum("pij,pj->pi", dW, x0[kd].reshape(m, 2)).ravel(),
-                                 check_finite=False)
+                z = _getrs(Clu, np.einsum("pij,pj->pi", dW, x0[kd].reshape(m, 2)).ravel())
                 x0 -= Yk @ z
             return x0
 
-        bn = np.linalg.norm(b)
         x = Pinv(b)
+        if self.inner_max == 0:          # modified Newton on the unchanged points
+            if np.all(np.isfinite(x)):
+                return x
+            if fresh:
+                raise np.linalg.LinAlgError("interface Jacobian: non-finite solution")
+            e.jr = None
+            return self._jac_solve(e, S, E, b, c)
+        bn = np.linalg.norm(b)
         prev = np.inf
         for k in range(self.inner_max):
             r = b - Jmul(x)

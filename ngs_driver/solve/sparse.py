@@ -136,6 +136,29 @@ def _bwd_part(Urp, Urj, Urx, rows, z, w):
 
 
 @njit(cache=True)
+def _fwd_part1(Lp, Li, Lx, cols, rows_in, b, y):
+    """_fwd_part for one right-hand side (b (m,), y (n,))."""
+    for a in range(rows_in.shape[0]):
+        y[rows_in[a]] += b[a]
+    for a in range(cols.shape[0]):
+        j = cols[a]
+        yj = y[j] / Lx[Lp[j]]
+        y[j] = yj
+        for q in range(Lp[j] + 1, Lp[j + 1]):
+            y[Li[q]] -= Lx[q] * yj
+
+
+@njit(cache=True)
+def _bwd_part1(Urp, Urj, Urx, rows, z, w):
+    """_bwd_part for one right-hand side (z, w (n,))."""
+    for a in range(rows.shape[0]):
+        j = rows[a]
+        acc = z[j]
+        for q in range(Urp[j] + 1, Urp[j + 1]):
+            acc -= Urx[q] * w[Urj[q]]
+        w[j] = acc / Urx[Urp[j]]
+
+@njit(cache=True)
 def _closure(p, idx, start):
     """Positions reachable from ``start`` through the compressed structure (p, idx) (each
     column/row lists positions after itself), as a boolean mask."""
@@ -258,15 +281,22 @@ class SparseFactor:
     def backward_at(self, z):
         """(Pc U^-1 z)[dofs] for z (n,) or (n, k), visiting only the closure of the dofs."""
         pt = self._part
-        z2 = z.reshape(z.shape[0], -1)
+        if z.ndim == 1:
+            w = np.empty_like(z)
+            _bwd_part1(*pt["Ur"], pt["brows"], z, w)
+            return w[pt["qout"]]
+        z2 = np.ascontiguousarray(z)
         w = np.empty_like(z2)
         _bwd_part(*pt["Ur"], pt["brows"], z2, w)
-        out = w[pt["qout"]]
-        return out[:, 0] if z.ndim == 1 else out
+        return w[pt["qout"]]
 
     def forward_sparse(self, bd):
         """L^-1 Pr b for b zero outside ``dofs`` with b[dofs] = bd ((m,) or (m, k))."""
         pt = self._part
+        if np.ndim(bd) == 1:
+            z = np.zeros(self.shape[0])
+            _fwd_part1(*self._L, pt["fcols"], pt["rin"], np.asarray(bd, np.float64), z)
+            return z
         b2 = np.ascontiguousarray(np.asarray(bd, np.float64).reshape(pt["dofs"].size, -1))
         z = np.zeros((self.shape[0], b2.shape[1]))
         _fwd_part(*self._L, pt["fcols"], pt["rin"], b2, z)
