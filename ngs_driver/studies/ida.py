@@ -634,6 +634,8 @@ def write_outputs(out, rows, im, failed, plots, study) -> list[str]:
     w.writeheader()
     for r in rows:
         w.writerow({k: ("" if r.get(k) is None else r.get(k)) for k in keys})
+    same = ((out / "ida.csv").exists() and (out / "ida.csv").read_text() == buf.getvalue()
+            and all((out / f).exists() for f in ("ida_curves.png", "fragility.png")))
     atomic_write_text(out / "ida.csv", buf.getvalue())
     frag = {"im": im, "im_label": IM_LABEL[im], "failed_runs_count_as": failed,
             "citation": "Baker (2015) Earthquake Spectra 31(1):579-599 (multiple-stripe MLE); "
@@ -651,7 +653,8 @@ def write_outputs(out, rows, im, failed, plots, study) -> list[str]:
     atomic_write_json(out / "study.json", study)
     files = ["ida.csv", "fragility.json", "study.json"]
     if plots and rows:
-        files += _plots(out, rows, frag, im)
+        # same table as the figures were drawn from (a call that only skipped): keep them
+        files += ["ida_curves.png", "fragility.png"] if same else _plots(out, rows, frag, im)
     return files
 
 
