@@ -111,3 +111,97 @@ def build_reservoir(res, mesh, fes, free, water_density, components=None, **acou
     return ReservoirModel("acoustic", res.level, water_density,
                           added_mass=ac.added_mass if ac.incompressible else None, acoustic=ac,
                           info=ac.summary())
+
+
+# ---------------------------------------------------------------------------------------------
+# modal analysis with the reservoir
+# ---------------------------------------------------------------------------------------------
+def frequency_response(model, k0_normal, k0_tangential, freqs_hz, eta: float = 0.1,
+                       water: str = "compressible"):
+    """Crest response to a unit harmonic horizontal ground acceleration e^{i w t} (the classic
+    way of Fenves & Chopra / EAGD-84), constant hysteretic damping K (1 + i eta) in the dam:
+
+        [[K* - w^2 M, -Q], [-rho w^2 Q^T, H - w^2 G + i w C_f]] [u; p] = [-M r_x; -rho g_x]
+
+    water: "compressible" (the acoustic reservoir), "incompressible" (G = C_f = 0) or "none"
+    (Q = 0).  M here is the structural mass (without any added mass).  Returns the complex
+    crest x-displacement relative to the ground and the total crest acceleration / a_g."""
+    import scipy.sparse.linalg as spl
+
+    res = model.reservoir
+    ac = res.acoustic
+    Kb = (model.K + model.interface.stiffness(k0_normal, k0_tangential)).tocsr()
+    Ms = model.M - (res.added_mass if res.added_mass is not None else 0)
+    Ms = sp.csr_matrix(Ms)
+    W = ac.W
+    nu, npp = Kb.shape[0], W.free.size
+    cx = model.crest_dofs[0]
+    ux = np.zeros(len(freqs_hz), complex)
+    for i, f in enumerate(freqs_hz):
+        w = 2 * np.pi * f
+        Auu = (Kb * (1 + 1j * eta) - w ** 2 * Ms).tocsc()
+        if water == "none":
+            u = spl.spsolve(Auu, (-(Ms @ model.r_x)).astype(complex))
+        else:
+            App = W.H if water == "incompressible" else (W.H - w ** 2 * W.G + 1j * w * W.Cf)
+            A = sp.bmat([[Auu, -ac.Q], [-ac.rho * w ** 2 * ac.Q.T, App]], format="csc")
+            b = np.concatenate([-(Ms @ model.r_x), -ac.rho * ac.g_x]).astype(complex)
+            u = spl.spsolve(A, b)[:nu]
+        ux[i] = u[cx]
+    w = 2 * np.pi * np.asarray(freqs_hz)
+    return ux, 1.0 - w ** 2 * ux
+
+
+def modal_extra(model, scene, k0_normal, k0_tangential, out) -> dict:
+    """What ``modal`` reports about the reservoir; for compressible acoustic water also the
+    crest frequency response (``frequency_response.csv`` / ``.png`` in out)."""
+    res = model.reservoir
+    d = dict(res.info)
+    d["kind"] = res.kind
+    if res.acoustic is None or res.acoustic.incompressible:
+        d["note"] = ("frequencies_hz include the hydrodynamic added mass ("
+                     + ("Westergaard" if res.kind == "westergaard" else
+                        "incompressible acoustic water, condensed exactly") + ")")
+        return d
+    from pathlib import Path
+
+    from .modal import modal_analysis
+    d["note"] = ("compressible water: frequencies_hz are those of the dam without water; the "
+                 "coupled system is frequency dependent, see frequency_response")
+    f_dry = modal_analysis(model, 1, k0_normal, k0_tangential).frequencies_hz[0]
+    f = np.linspace(0.3 * f_dry, 3.5 * f_dry, 240)
+    eta = 2 * scene.damping.ratio
+    curves = {k: frequency_response(model, k0_normal, k0_tangential, f, eta, k)[1]
+              for k in ("none", "incompressible", "compressible")}
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    with open(out / "frequency_response.csv", "w") as fh:
+        fh.write("f_hz,f_over_f1_dry,crest_acc_empty,crest_acc_incompressible,"
+                 "crest_acc_compressible\n")
+        for i, fi in enumerate(f):
+            fh.write(f"{fi:.6g},{fi / f_dry:.6g}," + ",".join(
+                f"{abs(curves[k][i]):.6g}" for k in ("none", "incompressible",
+                                                      "compressible")) + "\n")
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    fig, ax = plt.subplots(figsize=(7, 4))
+    for k, lab in (("none", "empty"), ("incompressible", "incompressible water"),
+                   ("compressible", f"compressible, alpha = {scene.reservoir.bottom_reflection:g}")):
+        ax.plot(f, np.abs(curves[k]), label=lab)
+    ax.axvline(res.acoustic.c / (4 * res.level), color="0.6", ls=":", lw=1,
+               label="reservoir f1 = c / 4H")
+    ax.set_xlabel("frequency [Hz]")
+    ax.set_ylabel("|crest total acceleration| / a_g")
+    ax.set_title(f"{scene.name}: crest response to harmonic horizontal ground acceleration "
+                 f"(hysteretic eta = {eta:g})", fontsize=9)
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(out / "frequency_response.png", dpi=120)
+    plt.close(fig)
+    peaks = {k: float(f[int(np.argmax(np.abs(v)))]) for k, v in curves.items()}
+    d["frequency_response"] = {"files": ["frequency_response.csv", "frequency_response.png"],
+                               "peak_hz": peaks, "hysteretic_eta": eta,
+                               "f1_dry_hz": float(f_dry),
+                               "peak_ratio_compressible_over_dry": peaks["compressible"] / f_dry}
+    return d

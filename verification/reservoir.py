@@ -1,0 +1,182 @@
+"""Reservoir verification (issue #12, docs/decisions.md "Reservoir") -> verification/out/reservoir.md.
+
+    python verification/reservoir.py [--fast] [--out DIR]
+
+1. Westergaard added mass on Koyna's vertical face against 7/12 rho H^2.
+2. Rigid vertical wall, rigid bottom, 92 m x 300 m incompressible reservoir: force against
+   Westergaard's exact 0.543 rho a H^2 and the wall pressure profile against the series.
+3. Compressible water: |F(omega)| against Chopra (1967) (alpha = 1) and Fenves & Chopra (1983)
+   (alpha < 1).
+4. Koyna classic on a rigid base, full reservoir 91.75 m: f1 empty / Westergaard / incompressible
+   acoustic, and the compressible frequency-response peak.
+5. Cost per step of the paper scene with and without the compressible acoustic reservoir
+   (same process, interleaved blocks of steps: the machine is shared).
+"""
+from __future__ import annotations
+
+import argparse
+import math
+import pathlib
+import sys
+import time
+
+import numpy as np
+
+ROOT = pathlib.Path(__file__).resolve().parent.parent
+sys.path.insert(0, str(ROOT))
+
+
+def westergaard_table(lines):
+    from ngs_driver.fe.model import build_from_scene
+    from ngs_driver.scene import load_scene
+    md = build_from_scene(load_scene("koyna_classic", ["reservoir.model=westergaard"]))
+    H = 91.75
+    tot = md.r_x @ (md.reservoir.added_mass @ md.r_x)
+    ref = 7 / 12 * 1000 * H ** 2
+    lines += ["## 1. Westergaard added mass, Koyna vertical face, H = 91.75 m", "",
+              "| r_x^T M_a r_x [kg/m] | 7/12 rho H^2 | rel. error |", "|---|---|---|",
+              f"| {tot:.6e} | {ref:.6e} | {tot / ref - 1:.2e} |", ""]
+
+
+def rigid_wall(lines, fast):
+    from ngs_driver.fe import acoustic as ac
+    H, L, c, rho = 92.0, 300.0, 1440.0, 1000.0
+    w1 = math.pi * c / (2 * H)
+    meshes = [(2.0, 6.0)] if fast else [(4.0, 12.0), (2.0, 6.0), (1.0, 4.0)]
+    lines += ["## 2. Rigid wall, rigid bottom, incompressible, 92 m x 300 m", "",
+              "| h wall / far [m] | pressure DOFs | F / (rho a H^2) | exact 0.54275 | error | "
+              "max profile error / p_max |", "|---|---|---|---|---|---|"]
+    for hf, hm in meshes:
+        mesh = ac.rectangle_water_mesh(H, L, hf, hm)
+        W = ac.water_matrices(mesh, c, False, 1.0, "radiation")
+        p = ac.rigid_wall_response(W, rho)
+        F = ac.face_force(W, p) / (rho * H ** 2)
+        ys = np.linspace(0, 0.95, 20) * H
+        pe = ac.pressure_at(W, p, [(0.0, y) for y in ys])
+        ps, Fs = ac.westergaard_series(ys, H, rho)
+        prof = np.abs(pe - ps.real).max() / np.abs(ps).max()
+        lines.append(f"| {hf:g} / {hm:g} | {W.free.size} | {-F:.5f} | "
+                     f"{-Fs.real / (rho * H ** 2):.5f} | {F / (Fs.real / (rho * H ** 2)) - 1:.2e} "
+                     f"| {prof:.2e} |")
+    lines += ["", "## 3. Compressible: |F(omega)| / (rho a H^2), FE (2 m / 6 m) vs analytic", "",
+              "| alpha | omega/omega_1 | FE | analytic | error |", "|---|---|---|---|---|"]
+    mesh = ac.rectangle_water_mesh(H, L, 2.0, 6.0)
+    for alpha in (1.0, 0.75, 0.5, 0.0):
+        W = ac.water_matrices(mesh, c, True, alpha, "radiation")
+        for r in (0.3, 0.6, 0.8, 0.9, 1.0, 1.2, 1.5):
+            if alpha == 1.0 and r == 1.0:
+                continue
+            Fe = abs(ac.face_force(W, ac.rigid_wall_response(W, rho, r * w1)))
+            Fa = abs(ac.westergaard_series([0.0], H, rho, omega=r * w1, c=c)[1] if alpha == 1
+                     else ac.absorbing_bottom_series(H, r * w1, c, alpha, rho, n_terms=400))
+            lines.append(f"| {alpha:g} | {r:g} | {Fe / (rho * H * H):.4f} | "
+                         f"{Fa / (rho * H * H):.4f} | {Fe / Fa - 1:+.2e} |")
+    lines.append("")
+
+
+def koyna_f1(lines, out):
+    from ngs_driver.fe.modal import k0_from_scene, modal_analysis, run_modal
+    from ngs_driver.fe.model import build_from_scene
+    from ngs_driver.scene import load_scene
+    sc = load_scene("koyna_classic")
+    kn, kt = k0_from_scene(sc)
+    rows = []
+    for lab, sets in (("empty", []), ("Westergaard", ["reservoir.model=westergaard"]),
+                      ("incompressible acoustic", ["reservoir.model=acoustic",
+                                                   "reservoir.compressible=false"])):
+        md = build_from_scene(load_scene("koyna_classic", sets))
+        rows.append((lab, modal_analysis(md, 1, kn, kt).frequencies_hz[0]))
+    s = load_scene("koyna_classic", ["reservoir.model=acoustic"])
+    run_modal(s, out / "reservoir_koyna_classic_compressible", 4)
+    import json
+    d = json.loads((out / "reservoir_koyna_classic_compressible" / "modal.json").read_text())
+    fr = d["reservoir"]["frequency_response"]
+    f0 = rows[0][1]
+    lines += ["## 4. Koyna classic, rigid base, reservoir 91.75 m", "",
+              "| water | f1 [Hz] | f1 / f1_empty |", "|---|---|---|"]
+    lines += [f"| {lab} | {f:.4f} | {f / f0:.4f} |" for lab, f in rows]
+    lines += [f"| compressible (alpha = 1), peak of the crest response (eta = 0.1) | "
+              f"{fr['peak_hz']['compressible']:.3f} | {fr['peak_hz']['compressible'] / f0:.4f} |",
+              "", "Frequency response: `reservoir_koyna_classic_compressible/"
+              "frequency_response.png` / `.csv`.", ""]
+
+
+def cost(lines, fast):
+    """Per-step wall of the paper scene's record with and without the compressible acoustic
+    reservoir: both models and solvers in one process, their steps interleaved (step k of one,
+    then step k of the other), so that the load of the shared machine hits both alike.  The
+    solver set-up is that of run/dam.py (the scene's base law, Rayleigh from the modal
+    analysis, dead load + hydrostatic static state, record from the scene's start)."""
+    from ngs_driver.fe.modal import damping_from_modes, k0_from_scene, modal_analysis
+    from ngs_driver.fe.model import build_from_scene
+    from ngs_driver.scene import load_scene
+    from ngs_driver.setup import build_law, load_ground_motion
+    from ngs_driver.solve.newmark import NewmarkSolver
+
+    n = 50 if fast else 200
+    runs = {}
+    for m in ("none", "acoustic"):
+        sc = load_scene("koyna", [f"reservoir.model={m}"])
+        t = time.perf_counter()
+        md = build_from_scene(sc)
+        tb = time.perf_counter() - t
+        law = build_law(sc)
+        kn, kt = k0_from_scene(sc)
+        modal = modal_analysis(md, 6, kn, kt)
+        d = damping_from_modes(modal, sc.damping.ratio, sc.damping.modes)
+        C = (d["a0"] * md.M + d["a1"] * md.K).tocsr()
+        s = NewmarkSolver(md.K, md.M, C, md.interface.B, md.interface.w, law, dt=sc.time.dt)
+        times = sc.time.dt * np.arange(n + 1)
+        ax, ay = load_ground_motion(sc).at(sc.ground_motion.start + times)
+        Mrx, Mry = md.M @ md.r_x, md.M @ md.r_y
+        if md.reservoir is not None:
+            from ngs_driver.out.reservoir_outputs import ReservoirRun
+            Mrx, Mry = md.reservoir.seismic_vectors(Mrx, Mry)
+            ReservoirRun.create(md, sc, s, times, ax, ay)
+        fs = md.f_gravity + md.f_water
+        s.static(fs)
+        s.initial_acceleration(fs - Mrx * ax[0] - Mry * ay[0])
+        npd = md.reservoir.info.get("n_pressure_dofs", 0) if md.reservoir else 0
+        runs[m] = dict(s=s, f=lambda k, fs=fs, Mrx=Mrx, Mry=Mry, ax=ax, ay=ay:
+                       fs - Mrx * ax[k] - Mry * ay[k], walls=[], build=tb, npd=npd)
+    for k in range(1, n + 1):
+        for m, r in runs.items():
+            t = time.perf_counter()
+            r["s"].step(r["f"](k))
+            r["walls"].append(time.perf_counter() - t)
+    lines += ["## 5. Cost per step, paper scene (12 198 structural DOFs, 333 interface points), "
+              f"first {n} steps of the record, interleaved", "",
+              "| reservoir | pressure DOFs | build [s] | median per step [ms] | "
+              "mean (incl. first step: factorisation) [ms] |", "|---|---|---|---|---|"]
+    for m, r in runs.items():
+        w = np.asarray(r["walls"])
+        lines.append(f"| {m} | {r['npd']} | {r['build']:.1f} | {1e3 * np.median(w):.1f} | "
+                     f"{1e3 * w.mean():.1f} |")
+    ratio = np.median(runs["acoustic"]["walls"]) / np.median(runs["none"]["walls"])
+    ratio_mean = np.mean(runs["acoustic"]["walls"][1:]) / np.mean(runs["none"]["walls"][1:])
+    lines += ["", f"Ratio acoustic / none: median **{ratio:.2f}**, mean of steps 2.. "
+              f"{ratio_mean:.2f} (goal < 1.3)", ""]
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--fast", action="store_true")
+    ap.add_argument("--out", default=str(ROOT / "verification" / "out"))
+    ap.add_argument("--skip-cost", action="store_true")
+    a = ap.parse_args(argv)
+    out = pathlib.Path(a.out)
+    out.mkdir(parents=True, exist_ok=True)
+    lines = ["# Reservoir verification (issue #12)", "",
+             "Generated by `python verification/reservoir.py`; see docs/decisions.md "
+             "\"Reservoir\".", ""]
+    westergaard_table(lines)
+    rigid_wall(lines, a.fast)
+    koyna_f1(lines, out)
+    if not a.skip_cost:
+        cost(lines, a.fast)
+    (out / "reservoir.md").write_text("\n".join(lines) + "\n")
+    print("\n".join(lines))
+
+
+if __name__ == "__main__":
+    main()
