@@ -165,6 +165,15 @@ class Uplift:
 
 
 @dataclass(frozen=True)
+class Screening:
+    """[screening] linear screening of the dam body (USACE EM 1110-2-6053; issue #13): per
+    element the demand-capacity ratio max principal tension / tensile_strength every step."""
+    enabled: bool = _f(False, doc="meant for a linear run (interface kept elastic)")
+    tensile_strength: float = _f(3.0e6, lo=0.0, hi=1e9, lo_open=True,
+                                 doc="concrete tensile strength (dynamic) [Pa]")
+
+
+@dataclass(frozen=True)
 class Joint:
     """A lift joint: a horizontal cut through the dam at ``elevation`` with its own law (every
     [interface] key may be given here; the others inherit [interface])."""
@@ -231,6 +240,7 @@ class Scene:
     solver: Solver = field(default_factory=Solver)
     reservoir: Reservoir = field(default_factory=Reservoir)
     uplift: Uplift = field(default_factory=Uplift)
+    screening: Screening = field(default_factory=Screening)
 
     def to_dict(self) -> dict:
         return _to_plain(dataclasses.asdict(self))

@@ -84,15 +84,62 @@ def safety_markdown(scene, static_joints, post, safety_sum) -> str:
     return "\n".join(lines) + "\n"
 
 
-def write_safety_outputs(out, scene, gm, H, static_joints, post, safety_sum, plots=True):
-    """results.md (the run's safety table) and, with plots, sliding_fs.png."""
+def plot_screening(path, scr, title):
+    """Map of the maximum DCR over the record per dam element, the worst element marked."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    from matplotlib.collections import PolyCollection
+
+    s = scr.summary()
+    fig, ax = plt.subplots(figsize=(6, 7))
+    pc = PolyCollection(scr.triangles, array=scr.max_dcr, cmap="viridis", edgecolors="none")
+    pc.set_clim(0.0, max(2.0, float(np.max(scr.max_dcr))))
+    ax.add_collection(pc)
+    ax.autoscale_view()
+    ax.set_aspect("equal")
+    w = s["worst_element"]
+    ax.plot([w["x"]], [w["y"]], "k*", ms=12,
+            label=f"worst: DCR {w['max_dcr']:.2f}, {w['cumulative_inelastic_duration']:.3f} s "
+                  "above 1")
+    ax.tricontour(scr.x, scr.y, scr.max_dcr, levels=[1.0], colors="k", linewidths=0.8)
+    fig.colorbar(pc, ax=ax, label=f"max DCR = sigma_1 / {scr.ft:.3g} Pa")
+    ax.legend(fontsize=7, loc="upper right")
+    ax.set_title(title + "\nlinear screening (EM 1110-2-6053): max over the record", fontsize=8)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return pathlib.Path(path).name
+
+
+def screening_markdown(s) -> str:
+    w = s["worst_element"]
+    return ("\n## Linear screening (USACE EM 1110-2-6053)\n\n"
+            f"DCR = max principal stress / {s['tensile_strength']:.4g} Pa per dam element "
+            f"({s['elements']}): static max {_fmt(s['static_max_dcr'])}, max over the record "
+            f"{s['max_dcr']:.4g} at ({s['max_dcr_at'][0]:.3g}, {s['max_dcr_at'][1]:.3g}) m, "
+            f"t = {s['t_max_dcr']:.3f} s; {s['elements_dcr_over_1']} elements above 1. Worst "
+            f"element (longest time above 1) at ({w['x']:.3g}, {w['y']:.3g}) m: max DCR "
+            f"{w['max_dcr']:.4g}, cumulative inelastic duration "
+            f"{w['cumulative_inelastic_duration']:.4g} s.\n")
+
+
+def write_safety_outputs(out, scene, gm, H, static_joints, post, safety_sum, plots=True,
+                         screening=None):
+    """results.md (the run's safety table) and, with plots, sliding_fs.png (and the screening
+    map screening_dcr.png when [screening] is enabled)."""
     out = pathlib.Path(out)
     lab = gm.label + (" [SYNTHETIC record]" if gm.synthetic else "")
     txt = (f"# {scene.name}: run results\n\nRecord: {lab}.\n\n"
            + safety_markdown(scene, static_joints, post, safety_sum))
+    if screening is not None:
+        txt += screening_markdown(screening.summary())
     atomic_write_text(out / "results.md", txt)
     files = ["results.md"]
     if plots:
         files.append(plot_sliding_fs(out / "sliding_fs.png", H, static_joints, post,
                                      f"{scene.name} -- {lab}"))
+        if screening is not None:
+            files.append(plot_screening(out / "screening_dcr.png", screening,
+                                        f"{scene.name} -- {lab}"))
     return files

@@ -331,7 +331,7 @@ def run(scene, outdir=None, resume: bool = False, progress: bool = True,
     safety_sum = safety.summary(H, ts.dt)
     from ..out.safety_plots import write_safety_outputs
     files.extend(write_safety_outputs(out, scene, gm, H, static_info.get("joints"), post,
-                                      safety_sum, plots=plots))
+                                      safety_sum, plots=plots, screening=safety.screening))
     walls = H["wall"]
     summary = {
         "scene": scene_d,
@@ -385,6 +385,7 @@ def run(scene, outdir=None, resume: bool = False, progress: bool = True,
                    "definition": "FS = (f max(N', 0) + sum over bonded points of w c) / |T| "
                                  "(EM 1110-2-2100 eq. 3-1; f, c the law's current values); "
                                  "docs/decisions.md, Safety"},
+        "screening": None if safety.screening is None else safety.screening.summary(),
         "resumed_from_step": resumed_from,
         "environment": environment_info(),
         "files": sorted(set(files)),

@@ -136,6 +136,7 @@ class Safety:
         self.fixed_point_unconverged = 0    # steps accepted at the iteration cap
         self.p_static = np.zeros(joints.w.size)
         self.static = None
+        self.screening = Screening(scene, model) if scene.screening.enabled else None
 
     # ---------------------------------------------------------------- loads and solves
     def extra_static_load(self, nfree):
@@ -173,15 +174,20 @@ class Safety:
         self.p_static = p.copy()
         self.uplift.p_pre = p.copy()
         self.uplift.p = p.copy()
+        if self.screening is not None:
+            self.screening.static(solver.u)
         return rep, f
 
     def step(self, solver, f_k):
         """One time step; f_k already holds the static uplift. Returns (report, load used)."""
         if not self.uplift.state_dependent:
-            return solver.step(f_k), f_k
-        f_base = f_k - self.uplift.load(self.p_static)
-        rep, p, f = self._solve(solver, solver.step, f_base, self.uplift.p, True)
-        self.uplift.p = p
+            rep, f = solver.step(f_k), f_k
+        else:
+            f_base = f_k - self.uplift.load(self.p_static)
+            rep, p, f = self._solve(solver, solver.step, f_base, self.uplift.p, True)
+            self.uplift.p = p
+        if self.screening is not None:
+            self.screening.update(solver.u, solver.time, solver.dt)
         return rep, f
 
     # ---------------------------------------------------------------- measures
@@ -330,11 +336,120 @@ class Safety:
         return out
 
     def checkpoint_arrays(self) -> dict:
-        return {"safety_p_static": self.p_static, "safety_p": self.uplift.p}
+        out = {"safety_p_static": self.p_static, "safety_p": self.uplift.p}
+        if self.screening is not None:
+            out.update(self.screening.arrays())
+        return out
 
     def restore(self, arrs, static_info):
         if "safety_p_static" in arrs:
             self.p_static = np.array(arrs["safety_p_static"])
             self.uplift.p_pre = self.p_static.copy()
             self.uplift.p = np.array(arrs["safety_p"])
+        if self.screening is not None and "screen_max" in arrs:
+            self.screening.restore(arrs)
         self.static = (static_info or {}).get("joints")
+
+
+class Screening:
+    """Linear screening of the dam body (USACE EM 1110-2-6053; docs/decisions.md §9): per dam
+    element (P1 triangles: constant stress) the demand-capacity ratio DCR = max principal
+    stress / tensile strength at the static state and every step, its maximum over time and
+    the cumulative inelastic duration (time with DCR > 1)."""
+
+    def __init__(self, scene, model):
+        import ngsolve as ngs
+        import scipy.sparse as sp
+
+        from ..fe.ngs_helpers import to_scipy, vec
+
+        self.ft = float(scene.screening.tensile_strength)
+        mesh, fes, free = model.mesh, model.fes, model.free
+        trial = fes.TrialFunction()
+        trial = tuple(trial) if isinstance(trial, (list, tuple)) else (trial,)
+        blocks = [r for r in model.regions if r != "rock"]
+        rows = {c: [] for c in ("xx", "yy", "xy")}
+        xs, ys, tris = [], [], []
+        for k, reg in enumerate(blocks):
+            Q = ngs.Compress(ngs.L2(mesh, order=0, definedon=mesh.Materials(reg)))
+            q, pq = Q.TestFunction(), Q.TrialFunction()
+            dxr = ngs.dx(definedon=mesh.Materials(reg))
+            mq = ngs.BilinearForm(Q)
+            mq += pq * q * dxr
+            mq.Assemble()
+            area = to_scipy(mq.mat).diagonal()
+            mat = model.materials[reg]
+            e = ngs.Sym(ngs.Grad(trial[k]))
+            s = mat.lam * ngs.Trace(e) * ngs.Id(2) + 2 * mat.mu * e
+            for c, (i, j) in (("xx", (0, 0)), ("yy", (1, 1)), ("xy", (0, 1))):
+                b = ngs.BilinearForm(trialspace=fes, testspace=Q)
+                b += s[i, j] * q * dxr
+                b.Assemble()
+                rows[c].append(sp.diags(1.0 / area) @ to_scipy(b.mat, (Q.ndof, fes.ndof))
+                               [:, free])
+            for cf, out in ((ngs.x, xs), (ngs.y, ys)):
+                lf = ngs.LinearForm(Q)
+                lf += cf * q * dxr
+                lf.Assemble()
+                out.append(vec(lf) / area)
+            tri = np.zeros((Q.ndof, 3, 2))
+            for el in mesh.Elements(ngs.VOL):
+                d = Q.GetDofNrs(el)
+                if len(d) and d[0] >= 0:
+                    tri[d[0]] = [mesh.vertices[v.nr].point[:2] for v in el.vertices]
+            tris.append(tri)
+        self.S = {c: sp.vstack(v).tocsr() for c, v in rows.items()}
+        self.x, self.y = np.concatenate(xs), np.concatenate(ys)
+        self.triangles = np.concatenate(tris)
+        n = self.x.size
+        self.max_dcr = np.full(n, -np.inf)
+        self.t_max = np.zeros(n)
+        self.duration = np.zeros(n)
+        self.static_dcr = None
+
+    def dcr(self, u) -> np.ndarray:
+        sxx, syy, sxy = (self.S[c] @ u for c in ("xx", "yy", "xy"))
+        s1 = 0.5 * (sxx + syy) + np.sqrt(0.25 * (sxx - syy) ** 2 + sxy ** 2)
+        return s1 / self.ft
+
+    def static(self, u):
+        """The static state (t = 0) enters the maximum, not the duration (it is not time)."""
+        self.static_dcr = self.dcr(u)
+        self.max_dcr = self.static_dcr.copy()
+        self.t_max = np.zeros_like(self.max_dcr)
+
+    def update(self, u, t, dt):
+        d = self.dcr(u)
+        new = d > self.max_dcr
+        self.max_dcr[new] = d[new]
+        self.t_max[new] = t
+        self.duration += dt * (d > 1.0)
+
+    def summary(self) -> dict:
+        i = int(np.argmax(self.duration)) if self.duration.any() else int(np.argmax(self.max_dcr))
+        j = int(np.argmax(self.max_dcr))
+        return {"method": "USACE EM 1110-2-6053 linear screening: DCR = max principal stress "
+                          "/ tensile strength per dam element (P1: constant stress)",
+                "tensile_strength": self.ft, "elements": int(self.x.size),
+                "static_max_dcr": float(self.static_dcr.max()) if self.static_dcr is not None
+                else None,
+                "max_dcr": float(self.max_dcr[j]), "max_dcr_at": [float(self.x[j]),
+                                                                  float(self.y[j])],
+                "t_max_dcr": float(self.t_max[j]),
+                "elements_dcr_over_1": int(np.count_nonzero(self.max_dcr > 1.0)),
+                "worst_element": {"x": float(self.x[i]), "y": float(self.y[i]),
+                                  "max_dcr": float(self.max_dcr[i]),
+                                  "cumulative_inelastic_duration": float(self.duration[i])}}
+
+    def arrays(self) -> dict:
+        return {"screen_max": self.max_dcr, "screen_tmax": self.t_max,
+                "screen_dur": self.duration,
+                "screen_static": self.static_dcr if self.static_dcr is not None
+                else np.zeros(0)}
+
+    def restore(self, arrs):
+        self.max_dcr = np.array(arrs["screen_max"])
+        self.t_max = np.array(arrs["screen_tmax"])
+        self.duration = np.array(arrs["screen_dur"])
+        st = np.array(arrs["screen_static"])
+        self.static_dcr = st if st.size else None
