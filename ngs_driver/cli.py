@@ -213,6 +213,14 @@ def cmd_modal(a) -> int:
     print(f"Rayleigh a0 = {damp['a0']:.6g} 1/s, a1 = {damp['a1']:.6g} s "
           f"({damp['source']}: {damp['f_a']:.3f}, {damp['f_b']:.3f} Hz)")
     print(f"wrote {out / 'modal.json'}")
+    rinfo = json.loads((out / "modal.json").read_text()).get("reservoir")
+    if rinfo:                                  # docs/decisions.md "Reservoir"
+        print(f"reservoir {rinfo['kind']}, level {rinfo['level']:g} m: {rinfo.get('note', '')}")
+        fr = rinfo.get("frequency_response")
+        if fr:
+            print("crest response peaks [Hz]: " + ", ".join(
+                f"{k} {v:.3f}" for k, v in fr["peak_hz"].items())
+                + f"; wrote {', '.join(str(out / f) for f in fr['files'])}")
     return 0
 
 

@@ -77,3 +77,27 @@ def test_acoustic_run_writes_pressure_outputs(tmp_path):
     assert len(rows) == 1 + 10
     assert any(abs(float(v)) > 0 for v in rows[-1][1:])
     assert s["reservoir"]["model"] == "acoustic" and not s["reservoir"]["incompressible"]
+
+
+def test_compressible_run_tends_to_the_incompressible_run(tmp_path):
+    """End to end (seismic load vectors, coupling signs, pressure recovery): the smoke scene's
+    face force history with compressible water of c = 1e5 m/s follows the incompressible run
+    (added mass + exact ground-driven pressure) within 3 % of its peak (measured 1.3 % over
+    0.3 s: the water rings at c / 4H = 270 Hz from the start; O((omega H / c)^2) is 1e-6),
+    while real water (c = 1440 m/s) differs by far more (measured 86 %)."""
+    import dataclasses
+
+    from ngs_driver.run.dam import run
+
+    base = ["reservoir.model=acoustic", "ground_motion.start=0.0", "time.duration=0.2",
+            "reservoir.far_end=rigid"]
+    F = {}
+    for lab, sets, c in (("inc", ["reservoir.compressible=false"], None), ("c1e5", [], 1e5)):
+        sc = load_scene("koyna_smoke", base + sets)
+        md = build_from_scene(sc, reservoir=dataclasses.replace(sc.reservoir, sound_speed=c)) \
+            if c else None
+        run(sc, tmp_path / lab, progress=False, plots=False, model=md)
+        rows = list(csv.DictReader(open(tmp_path / lab / "reservoir_pressure.csv")))
+        F[lab] = np.array([float(r["Fx_N_per_m"]) for r in rows])
+    assert np.abs(F["inc"]).max() > 1e5                      # the water does push (N/m)
+    assert np.abs(F["c1e5"] - F["inc"]).max() <= 0.03 * np.abs(F["inc"]).max()
