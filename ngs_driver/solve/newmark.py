@@ -130,7 +130,7 @@ class NewmarkSolver:
     def __init__(self, K, M, C, B, w, law, *, dt, beta=None, gamma=None, alpha_hht=0.0,
                  tol_residual=1e-8, tol_energy=1e-16, max_iter=25, min_dt=None,
                  method="condensed", line_search=True, max_cache=6, active_tol=1e-12,
-                 lowrank_max=64, jacobian_tol=1e-4, inner_rtol=1e-13, inner_max=6,
+                 lowrank_max=64, jacobian_tol=1e-4, inner_rtol=1e-9, inner_max=6,
                  reference_every=10):
         if method not in ("condensed", "full"):
             raise ValueError(f"NewmarkSolver method = {method!r} is not allowed; allowed: "
@@ -240,6 +240,7 @@ class NewmarkSolver:
         if self.C is not None:
             r -= self.C @ self.v
         self.a = self._Minv.solve(r)
+        self._Minv = None                # used once per run: not kept (memory, #15)
         self.f = np.array(f, dtype=float)
         return self.a
 
@@ -686,6 +687,7 @@ class NewmarkSolver:
         the last accepted sub-step, ``self.time`` tells where)."""
         t0 = time.perf_counter()
         rep = StepReport()
+        self._static_cache = None        # the static factorisation is not needed any more
         f_next = np.asarray(f_next, dtype=float)
         f_start = self.f if self.f is not None else f_next
         # the reference Jacobians are dropped at every reference_every-th step, so that the
