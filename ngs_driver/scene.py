@@ -46,7 +46,10 @@ class Geometry:
     extent_up: float = _f(1.0, lo=0.1, hi=10.0, doc="rock extent upstream / base width")
     extent_down: float = _f(1.0, lo=0.1, hi=10.0, doc="rock extent downstream / base width")
     extent_depth: float = _f(1.0, lo=0.1, hi=10.0, doc="rock depth / base width")
-    rock_sides: str = _f("fixed", choices=("fixed", "roller", "free"))
+    rock_sides: str = _f("fixed", choices=("fixed", "roller", "free", "absorbing"),
+                         doc="absorbing: Lysmer-Kuhlemeyer dashpots on the sides and bottom, the "
+                             "record as the outcrop motion entering through free-field forces "
+                             "(massed rock only; docs/decisions.md §9)")
     matching: bool = _f(True, doc="False: dam and rock meshed separately (node-to-segment)")
 
 

@@ -142,6 +142,12 @@ SCENES = [
     (["uplift.tailwater=95"],
      r"uplift.tailwater = 95.0: above the headwater reservoir.level = 92 m; allowed: \[0, 92\]"),
     (["uplift.in_crack=half"], r"uplift.in_crack = 'half': not allowed"),
+    (["geometry.foundation=elastic"], r"geometry.foundation = 'elastic': not allowed"),
+    (["geometry.foundation=rigid", "geometry.rock_sides=absorbing"],
+     r"geometry.rock_sides = 'absorbing' with geometry.foundation = 'rigid'.*allowed: "
+     r"geometry.foundation = 'massed'"),
+    (["geometry.foundation=massless", "geometry.rock_sides=absorbing"],
+     r"geometry.rock_sides = 'absorbing' with geometry.foundation = 'massless'"),
 ]
 
 

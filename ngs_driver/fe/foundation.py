@@ -80,3 +80,77 @@ def dashpot_matrix(mesh, fes, free, boundaries: str, E: float, nu: float, rho: f
     c.Assemble()
     C = to_scipy(c.mat)[free][:, free].tocsr()
     return ((C + C.T) * 0.5).tocsr()
+
+
+class AbsorbingRock:
+    """A massed rock block with Lysmer-Kuhlemeyer dashpots on its sides and bottom and the
+    earthquake entered as free-field forces (docs/decisions.md §9).
+
+    The given record is the **outcrop** motion (the free surface of the rock, y = 0). For
+    vertically incident waves in the homogeneous rock (S for x, P for y) the free field is
+    u_ff(y, t) = (u_o(t + y/c) + u_o(t - y/c)) / 2 (y <= 0; the incident wave is half the
+    outcrop motion, the surface doubles it). On each absorbing boundary the force
+    integral of (sigma_ff . n + D v_ff) . phi ds (D = rho (c_P n n + c_S t t)) is applied, so
+    that the dashpots absorb only the waves scattered by the dam; at the bottom it reduces to
+    rho c v_o(t + d/c) = 2 rho c v_incident. The displacements of such a run are total (no
+    -M r a_g): the static state is solved on springs (``support``) whose reactions are then
+    applied as constant forces."""
+
+    def __init__(self, model, rock, gm, t0: float = 0.0):
+        import ngsolve as ngs
+
+        from .ngs_helpers import to_scipy, vec
+
+        mesh, fes, free = model.mesh, model.fes, model.free
+        k = len(model.regions) - 1                     # the rock field (last)
+        self.E, self.nu, self.rho = rock.E, rock.nu, rock.rho
+        self.cp, self.cs = wave_speeds(rock.E, rock.nu, rock.rho)
+        lam = rock.E * rock.nu / ((1 + rock.nu) * (1 - 2 * rock.nu))
+        self.kxx = lam / (lam + 2 * rock.E / (2 * (1 + rock.nu)))    # sigma_xx / sigma_yy (P)
+        self.C = dashpot_matrix(mesh, fes, free, "rock_bottom|rock_left|rock_right", rock.E,
+                                rock.nu, rock.rho, field=k)
+        u, v = fes.TnT()
+        u, v = u[k], v[k]
+        self.mass = {}
+        for b in ("rock_bottom", "rock_left", "rock_right"):
+            for c in (0, 1):
+                m = ngs.BilinearForm(fes)
+                m += u[c] * v[c] * ngs.ds(b)
+                m.Assemble()
+                self.mass[b, c] = to_scipy(m.mat)[free][:, free].tocsr()
+        gf = ngs.GridFunction(fes)
+        gf.components[k].Set(ngs.CF((ngs.y, ngs.y)))
+        self.ydof = vec(gf)[free]
+        v_o, _ = gm.integrate()                          # outcrop velocity, (n, 2)
+        self._t, self._v = np.asarray(gm.t), v_o
+        self.t0 = float(t0)
+        # support springs for the static state: stiff against the rock's own stiffness
+        kb = 1e3 * rock.E / max(float(np.ptp(self.ydof)), 1.0)
+        self.K_support = kb * sum(self.mass.values())
+
+    def v_out(self, t, comp):
+        return np.interp(self.t0 + t, self._t, self._v[:, comp], left=0.0,
+                         right=float(self._v[-1, comp]))
+
+    def force(self, t: float) -> np.ndarray:
+        """Free-field forces on the absorbing boundaries at analysis time t."""
+        y = np.minimum(self.ydof, 0.0)
+        f = np.zeros(self.ydof.size)
+        for comp, c in ((0, self.cs), (1, self.cp)):
+            up = self.v_out(t - y / c, comp)             # v_o(t + |y|/c)
+            dn = self.v_out(t + y / c, comp)             # v_o(t - |y|/c)
+            vff = 0.5 * (up + dn)
+            s = 0.5 * self.rho * c * (dn - up)           # sigma_xy (S) or sigma_yy (P) at y
+            if comp == 0:       # S: v_ff = (v, 0); sigma_xy = s, sigma_xx = sigma_yy = 0
+                f += self.mass["rock_bottom", 0] @ (-s + self.rho * self.cs * vff)
+                f += self.mass["rock_left", 1] @ (-s)
+                f += self.mass["rock_right", 1] @ s
+                f += (self.mass["rock_left", 0] + self.mass["rock_right", 0]) @ (
+                    self.rho * self.cp * vff)
+            else:               # P: v_ff = (0, v); sigma_yy = s, sigma_xx = kxx s
+                f += self.mass["rock_bottom", 1] @ (-s + self.rho * self.cp * vff)
+                f += self.mass["rock_left", 0] @ (-self.kxx * s)
+                f += self.mass["rock_right", 0] @ (self.kxx * s)
+                f += (self.mass["rock_left", 1] + self.mass["rock_right", 1]) @ (
+                    self.rho * self.cs * vff)
+        return f

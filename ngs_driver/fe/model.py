@@ -202,7 +202,7 @@ def build_model(foundation: str = "rock", order: int = 1, gauss_points: int = 3,
     """
     import ngsolve as ngs
 
-    if rock_sides not in ("fixed", "roller", "free"):
+    if rock_sides not in ("fixed", "roller", "free", "absorbing"):
         raise ValueError(f"rock_sides={rock_sides!r}: allowed 'fixed', 'roller', 'free'")
     if lumped_mass and order != 1:
         raise ValueError("lumped_mass=True needs order=1 (row-sum lumping of higher-order "
@@ -247,7 +247,8 @@ def build_model(foundation: str = "rock", order: int = 1, gauss_points: int = 3,
     if foundation != "rigid":
         side_bc = "|rock_left|rock_right" if rock_sides == "fixed" else ""
         spaces.append(ngs.Compress(ngs.VectorH1(mesh, order=order, definedon="rock",
-                                                dirichlet="rock_bottom" + side_bc)))
+                                                dirichlet="" if rock_sides == "absorbing"
+                                                else "rock_bottom" + side_bc)))
     if len(spaces) == 1:
         fes = spaces[0]
         trial, test = (fes.TrialFunction(),), (fes.TestFunction(),)

@@ -85,7 +85,7 @@ def run(scene, outdir=None, resume: bool = False, progress: bool = True,
     iface = model.interface
     w = iface.w
     joints = JointSet(scene, iface)
-    safety = Safety(scene, model, joints)      # uplift, forces, FS (issue #13)
+    safety = Safety(scene, model, joints, gm)  # uplift, forces, FS, foundation (issue #13)
     safety.set_dof_masks(model)
     base = joints.slices[0]
     ref_coh = joints.reference[0].cohesive
@@ -95,7 +95,7 @@ def run(scene, outdir=None, resume: bool = False, progress: bool = True,
 
     t = time.perf_counter()
     k0p = initial_stiffness(joints.solver_law(), iface.npts)    # each joint its own k0
-    modal = modal_analysis(model, 6, k0p[:, 0], k0p[:, 1])
+    modal = modal_analysis(safety.modal_model(model), 6, k0p[:, 0], k0p[:, 1])
     d = scene.damping
     damp = damping_from_modes(modal, d.ratio, d.modes, d.frequencies or None)
     # ARPACK's random start vector changes the last bits of the eigenvalues from call to call:
@@ -106,6 +106,8 @@ def run(scene, outdir=None, resume: bool = False, progress: bool = True,
         damp["a0"], damp["a1"] = ck[0]["rayleigh"]["a0"], ck[0]["rayleigh"]["a1"]
     t_modal = time.perf_counter() - t
     C = (damp["a0"] * model.M + damp["a1"] * model.K).tocsr()
+    if safety.absorbing is not None:           # Lysmer-Kuhlemeyer dashpots (#13)
+        C = (C + safety.absorbing.C).tocsr()
     ts, sv = scene.time, scene.solver
     solver = NewmarkSolver(model.K, model.M, C, iface.B, w, joints.solver_law(), dt=ts.dt,
                            beta=ts.newmark_beta, gamma=ts.newmark_gamma,
@@ -123,6 +125,8 @@ def run(scene, outdir=None, resume: bool = False, progress: bool = True,
         if plots and scene.output.vtk_every > 0:
             rres.enable_vtk(out)
     f_base = model.f_gravity + model.f_water + safety.extra_static_load(model.nfree)
+    if safety.absorbing is not None:           # total displacements: the record enters as
+        Mrx, Mry = 0.0 * Mrx, 0.0 * Mry        # free-field forces (safety.step)
     f_static = f_base                          # + the static uplift, once it is known
     cx, cy = model.crest_dofs
     chars = characteristic_times(scene, ref_coh.l_Nc)
@@ -166,7 +170,8 @@ def run(scene, outdir=None, resume: bool = False, progress: bool = True,
             initial_acceleration(solver, f_static - Mrx * ax[0] - Mry * ay[0],
                                  massless_dofs(model.M), damp["a1"])
         else:
-            solver.initial_acceleration(f_static - Mrx * ax[0] - Mry * ay[0])
+            solver.initial_acceleration(f_static - Mrx * ax[0] - Mry * ay[0]
+                                        + safety.input_force(0.0))
         st = solver.state
         u_static = solver.u.copy()
         tr = solver.t[base]
@@ -205,8 +210,7 @@ def run(scene, outdir=None, resume: bool = False, progress: bool = True,
         solver.time = float(meta["time"])
         static_info = meta["static"]
         safety.restore(arrs, static_info)
-        if safety.uplift.active:
-            f_static = f_base + safety.uplift.load(safety.p_static)
+        f_static = f_base + safety.static_extra()
         t_static = static_info["wall"]
         u_static = arrs["u_static"]
         hist = History.from_arrays(arrs, hist_keys)

@@ -125,7 +125,7 @@ class Safety:
 
     MAX_FIXED_POINT = 20
 
-    def __init__(self, scene, model, joints):
+    def __init__(self, scene, model, joints, gm=None):
         self.scene = scene
         self.joints = joints
         self.uplift = UpliftField(scene, model.interface, joints.names, joints.slices)
@@ -137,6 +137,32 @@ class Safety:
         self.p_static = np.zeros(joints.w.size)
         self.static = None
         self.screening = Screening(scene, model) if scene.screening.enabled else None
+        self.absorbing = None                # fe.foundation.AbsorbingRock
+        self.f_reaction = np.zeros(model.nfree)
+        if scene.geometry.rock_sides == "absorbing":
+            from ..fe.foundation import AbsorbingRock
+            self.absorbing = AbsorbingRock(model, scene.materials.rock, gm,
+                                           scene.ground_motion.start)
+
+    def modal_model(self, model):
+        """The model the modal analysis sees: with absorbing (unsupported) rock boundaries,
+        the static support springs (the dashpots have no stiffness)."""
+        if self.absorbing is None:
+            return model
+        import dataclasses
+        return dataclasses.replace(model, K=(model.K + self.absorbing.K_support).tocsr())
+
+    def input_force(self, t: float):
+        """Free-field forces of absorbing boundaries at analysis time t (else 0)."""
+        return 0.0 if self.absorbing is None else self.absorbing.force(t)
+
+    def static_extra(self):
+        """What the static load holds besides gravity, water and tailwater: the uplift of the
+        static state and, with absorbing boundaries, the support reactions."""
+        f = self.f_reaction.copy()
+        if self.uplift.active:
+            f += self.uplift.load(self.p_static)
+        return f
 
     # ---------------------------------------------------------------- loads and solves
     def extra_static_load(self, nfree):
@@ -169,8 +195,21 @@ class Safety:
         """The pre-earthquake static state; freezes the pre-earthquake pressure. Returns
         (report, f_static) with f_static = f_base + f_U(p_static)."""
         p0 = self.uplift.pressure(solver.state)
+        main = solver
+        if self.absorbing is not None:       # no supports: solve on springs, keep reactions
+            from ..solve.newmark import NewmarkSolver
+            solver = NewmarkSolver(main.K + self.absorbing.K_support, main.M, None, main.B,
+                                   main.w, main.law, dt=main.dt, tol_residual=main.tol_residual,
+                                   max_iter=main.max_iter)
+            solver.state = main.state
         # before the shaking every drawing depends on the static crack (cracked-base rule)
         rep, p, f = self._solve(solver, solver.static, f_base, p0, self.uplift.active)
+        if self.absorbing is not None:
+            self.f_reaction = -(self.absorbing.K_support @ solver.u)
+            f = f + self.f_reaction
+            main.state = solver.state
+            main.set_initial(u=solver.u, v=np.zeros(main.ndof), a=np.zeros(main.ndof), f=f)
+            solver = main
         self.p_static = p.copy()
         self.uplift.p_pre = p.copy()
         self.uplift.p = p.copy()
@@ -180,6 +219,8 @@ class Safety:
 
     def step(self, solver, f_k):
         """One time step; f_k already holds the static uplift. Returns (report, load used)."""
+        if self.absorbing is not None:
+            f_k = f_k + self.absorbing.force(solver.time + solver.dt)
         if not self.uplift.state_dependent:
             rep, f = solver.step(f_k), f_k
         else:
@@ -238,8 +279,15 @@ class Safety:
         of every joint against FS_CRITERION. ``f_base_static``: gravity + water (+ tailwater),
         without uplift. A solve that finds no equilibrium reports FS from the load resultants
         (statically determinate for a rigid block) and says so."""
-        from ..solve.newmark import SolverError
+        from ..solve.newmark import NewmarkSolver, SolverError
 
+        if self.absorbing is not None:       # unsupported rock: the static springs again
+            main = solver
+            solver = NewmarkSolver(main.K + self.absorbing.K_support, main.M, None, main.B,
+                                   main.w, main.law, dt=main.dt, tol_residual=main.tol_residual,
+                                   max_iter=main.max_iter)
+            solver.state = main.state
+            solver.set_initial(u=main.u)
         self.uplift.p = self.uplift.pressure(solver.state)
         final = _snapshot(solver)
         slip0 = self._mean_slips(solver.g)
@@ -336,7 +384,8 @@ class Safety:
         return out
 
     def checkpoint_arrays(self) -> dict:
-        out = {"safety_p_static": self.p_static, "safety_p": self.uplift.p}
+        out = {"safety_p_static": self.p_static, "safety_p": self.uplift.p,
+               "safety_f_reaction": self.f_reaction}
         if self.screening is not None:
             out.update(self.screening.arrays())
         return out
@@ -346,6 +395,8 @@ class Safety:
             self.p_static = np.array(arrs["safety_p_static"])
             self.uplift.p_pre = self.p_static.copy()
             self.uplift.p = np.array(arrs["safety_p"])
+        if "safety_f_reaction" in arrs:
+            self.f_reaction = np.array(arrs["safety_f_reaction"])
         if self.screening is not None and "screen_max" in arrs:
             self.screening.restore(arrs)
         self.static = (static_info or {}).get("joints")
