@@ -25,6 +25,16 @@ def format_summary(s: dict) -> str:
         f"{s['solver_totals']['cuts']}; wall: static {tm['static']:.2f} s, dynamic "
         f"{tm['dynamic']:.1f} s, per step median {1e3 * (tm['per_step_median'] or 0):.2f} ms",
     ]
+    pe = s.get("post_earthquake")
+    for name, st in ((s.get("static") or {}).get("joints") or {}).items():   # issue #13
+        d = (s.get("safety") or {}).get("joints", {}).get(name, {})
+        p = (pe or {}).get("joints", {}).get(name, {})
+        lines.append(f"  {name}: sliding FS static {st['sliding_fs']:.3g}, min "
+                     f"{d.get('min_sliding_fs') or float('nan'):.3g}, post-earthquake "
+                     f"{p.get('sliding_fs', float('nan')):.3g} (criterion 1.3: "
+                     f"{'met' if p.get('meets_criterion') else 'NOT met'}); N' "
+                     f"{st['normal_force']:.4g}, T {st['shear_force']:.4g}, U "
+                     f"{st['uplift_force']:.4g} N/m")
     return "\n".join(lines)
 
 
