@@ -760,10 +760,11 @@ def step_pair(m, sc, a0a1, n_warm=10, n_meas=30, start=START):
             "ratio": float(np.median(wn) / np.median(wl)), "stats": dict(sn.stats)}
 
 
-def part7(res, quick=False, n_meas=30):
+def part7(res, quick=False, n_meas=20):
     """Target 3: time per step against interface points and DOFs, nonlinear and linear."""
     base = ["ground_motion.scale=0.2"]
-    series = {"points": [[f"mesh.gauss_points={g}"] for g in (1, 3, 6, 12, 18)],
+    series = {"points": [[f"mesh.gauss_points={g}"] for g in (1, 3, 6, 10)]
+              + [["mesh.gauss_points=10", "mesh.h_interface=0.5"]],
               "dofs": [[f"mesh.h_coarse={h}"] for h in (4.0, 2.0, 1.0, 0.6)]}
     if quick:
         series = {"points": [["mesh.gauss_points=1"], ["mesh.gauss_points=2"]], "dofs": []}

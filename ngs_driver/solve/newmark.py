@@ -494,9 +494,14 @@ class NewmarkSolver:
         Dw = E * cw[:, None, None]
         n2 = b.size
 
+        d00, d01, d10, d11 = Dw[:, 0, 0], Dw[:, 0, 1], Dw[:, 1, 0], Dw[:, 1, 1]
+
         def Jmul(x):
-            x2 = x.reshape(-1, 2)
-            return x + S @ (Dw @ x2[:, :, None]).ravel()
+            y = np.empty_like(x)
+            x0, x1 = x[0::2], x[1::2]
+            y[0::2] = d00 * x0 + d01 * x1
+            y[1::2] = d10 * x0 + d11 * x1
+            return x + S @ y
 
         jr = e.jr
         ch = None
