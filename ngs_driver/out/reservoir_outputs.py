@@ -75,8 +75,8 @@ class ReservoirRun:
             f = -(self.res.added_mass @ acc)
             fx, fy = float(m.r_x @ f), float(m.r_y @ f)
             H = self.level
-            vals = [-7.0 / 8.0 * self.res.water_density * np.sqrt(H * (H - y))
-                    * (self._face_ax(acc, y)) for y in self.ys]
+            vals = [-7.0 / 8.0 * self.res.water_density * np.sqrt(H * (H - y)) * ax_
+                    for y, ax_ in zip(self.ys, self._face_ax(acc))]
         self.rows["Fx"].append(fx)
         self.rows["Fy"].append(fy)
         for y, v in zip(self.ys, vals):
@@ -93,15 +93,17 @@ class ReservoirRun:
         pts = [(x - 1e-3, max(y, 1e-3)) for x, y in self._pts]
         return list(pressure_at(self.ac.W, p, pts))
 
-    def _face_ax(self, acc, y):
-        """x-acceleration of the dam at the face point of elevation y."""
+    def _face_ax(self, acc):
+        """x-acceleration of the dam at the face stations (elevations self.ys)."""
         from ..fe.acoustic import face_chain
         m = self.model
-        if not hasattr(self, "_chain"):
-            self._chain = face_chain(m.mesh, self.level)
-        x = float(np.interp(y, [c[2] for c in self._chain], [c[1] for c in self._chain]))
+        if not hasattr(self, "_mips"):
+            ch = face_chain(m.mesh, self.level)
+            xs = np.interp(self.ys, [c[2] for c in ch], [c[1] for c in ch])
+            self._mips = [m.mesh(float(x) + 1e-3, float(min(y, self.level - 1e-3)))
+                          for x, y in zip(xs, self.ys)]
         cf = m.displacement_cf(m.to_gridfunction(acc))
-        return float(cf(m.mesh(x + 1e-6, min(y, self.level - 1e-6)))[0])
+        return [float(cf(mp)[0]) for mp in self._mips]
 
     def enable_vtk(self, out):
         self._vtk_dir = pathlib.Path(out) / "vtk"
