@@ -168,7 +168,7 @@ def test_post_earthquake_without_equilibrium_reports_the_resultants(rigid_model)
     it = rigid_model.interface
     joints = JointSet(sc, it)
     s = NewmarkSolver(rigid_model.K, rigid_model.M, None, it.B, it.w, joints.solver_law(),
-                      dt=0.002, max_iter=30)
+                      dt=0.002, max_iter=10)
     st = s.state.copy()
     st.kappa[:] = 1.0
     s.state = st
@@ -184,3 +184,31 @@ def test_post_earthquake_without_equilibrium_reports_the_resultants(rigid_model)
     assert b["shear_force"] == pytest.approx(0.5 * RHO_G * H ** 2, rel=1e-12)
     assert b["sliding_fs"] == pytest.approx(F * W / (0.5 * RHO_G * H ** 2), rel=1e-12)
     assert b["meets_criterion"] is False
+
+
+def test_resume_with_crack_dependent_uplift_and_screening(tmp_path):
+    """koyna_smoke (rock, the heel cracks) with in_crack = zero and screening: a run stopped
+    after 27 steps and resumed from its checkpoint at step 20 ends where the uninterrupted
+    one does (the static pressure, the pressure in force and the screening accumulators are
+    checkpointed); 1e-12 as in test_koyna_run's resume test."""
+    from ngs_driver.run.dam import RunInterrupted
+
+    sc = load_scene("koyna_smoke", ["uplift.model=linear", "uplift.in_crack=zero",
+                                    "screening.enabled=true"])
+    model = build_from_scene(sc)
+    a, b = tmp_path / "a", tmp_path / "b"
+    sa = run(sc, a, progress=False, model=model, plots=False)
+    with pytest.raises(RunInterrupted):
+        run(sc, b, progress=False, model=model, plots=False, max_steps=27)
+    sb = run(sc, b, resume=True, progress=False, model=model, plots=False)
+    assert sb["resumed_from_step"] == 20
+    assert sa["results"]["crack_length_heel_final"] > 0
+    za, zb = np.load(a / "final_state.npz"), np.load(b / "final_state.npz")
+    for k in za.files:
+        np.testing.assert_allclose(zb[k], za[k], rtol=1e-12, atol=1e-12 * np.abs(za[k]).max()
+                                   + 1e-300, err_msg=k)
+    assert sa["safety"]["uplift_fixed_point_solves"] > 0       # the crack grew under p
+    assert sb["screening"] == sa["screening"]
+    assert sb["safety"]["uplift_fixed_point_solves"] == sa["safety"]["uplift_fixed_point_solves"]
+    assert sb["safety"]["joints"] == sa["safety"]["joints"]
+    assert sb["post_earthquake"]["joints"] == sa["post_earthquake"]["joints"]

@@ -385,7 +385,9 @@ class Safety:
 
     def checkpoint_arrays(self) -> dict:
         out = {"safety_p_static": self.p_static, "safety_p": self.uplift.p,
-               "safety_f_reaction": self.f_reaction}
+               "safety_f_reaction": self.f_reaction,
+               "safety_counts": np.array([self.fixed_point_iterations,
+                                          self.fixed_point_unconverged], dtype=np.int64)}
         if self.screening is not None:
             out.update(self.screening.arrays())
         return out
@@ -395,6 +397,9 @@ class Safety:
             self.p_static = np.array(arrs["safety_p_static"])
             self.uplift.p_pre = self.p_static.copy()
             self.uplift.p = np.array(arrs["safety_p"])
+        if "safety_counts" in arrs:
+            self.fixed_point_iterations, self.fixed_point_unconverged = (
+                int(c) for c in arrs["safety_counts"])
         if "safety_f_reaction" in arrs:
             self.f_reaction = np.array(arrs["safety_f_reaction"])
         if self.screening is not None and "screen_max" in arrs:
