@@ -337,7 +337,7 @@ class AcousticReservoir:
         return self.W.free.size
 
     @classmethod
-    def build(cls, res, mesh, fes, free, rho, components=None, order=1):
+    def build(cls, res, mesh, fes, free, rho, components=None, order=1, bands=None):
         import ngsolve as ngs
 
         from .reservoir import dam_normal_trial_test
@@ -345,7 +345,7 @@ class AcousticReservoir:
         W = water_matrices(mesh, res.sound_speed, res.compressible, res.bottom_reflection,
                            res.far_end, order=1)
         # Q: test = structure, trial = pressure: int_face p (v . n) ds
-        _, vn = dam_normal_trial_test(fes, components)
+        _, vn = dam_normal_trial_test(fes, components, bands)
         p = W.Vp.TrialFunction()
         b = ngs.BilinearForm(trialspace=W.Vp, testspace=fes)
         b += p * vn * ngs.ds(FACE)

@@ -299,7 +299,8 @@ def build_model(foundation: str = "rock", order: int = 1, gauss_points: int = 3,
         from .reservoir import build_reservoir
         comps = [k for k, r in enumerate(mats) if r != "rock"]     # dam fields, fes order
         res_model = build_reservoir(reservoir, mesh, fes, free, water_density,
-                                    None if len(mats) == 1 else comps)
+                                    None if len(mats) == 1 else comps,
+                                    regions=[r for r in mats if r != "rock"])
         if res_model.added_mass is not None:                # westergaard, incompressible
             M = (M + res_model.added_mass).tocsr()
 
