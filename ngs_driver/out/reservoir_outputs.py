@@ -18,7 +18,7 @@ FRACTIONS = (0.0, 0.25, 0.5, 0.75, 0.9)      # elevations / level at which p is 
 
 
 class ReservoirRun:
-    def __init__(self, model, scene, solver, times, ax, ay, resume=False):
+    def __init__(self, model, scene, solver, times, ax, ay, resume=False, out=None):
         self.model, self.scene, self.solver = model, scene, solver
         self.res = model.reservoir
         self.times, self.ax, self.ay = times, ax, ay
@@ -29,22 +29,55 @@ class ReservoirRun:
         self.ys = [f * self.level for f in FRACTIONS]
         for y in self.ys:
             self.rows[f"p_y{y:.2f}"] = []
+        self.out = None if out is None else pathlib.Path(out)
+        self.every = scene.output.checkpoint_every
         if self.ac is not None and not self.ac.incompressible:
-            if resume:
-                raise ValueError("--resume with reservoir.model = 'acoustic' and compressible "
-                                 "water: the water state is not checkpointed; allowed: a fresh "
-                                 "run, or reservoir.compressible = false")
             from ..fe.acoustic_newmark import FluidStepper
             self.stepper = FluidStepper(self.ac, solver, self.ground)
+        if resume:
+            self._resume()
         if self.ac is not None:
             self._pts = self.ac.face_stations(FRACTIONS)
         self._vtk = None
 
     @classmethod
-    def create(cls, model, scene, solver, times, ax, ay, resume=False):
+    def create(cls, model, scene, solver, times, ax, ay, resume=False, out=None):
         if getattr(model, "reservoir", None) is None:
             return None
-        return cls(model, scene, solver, times, ax, ay, resume)
+        return cls(model, scene, solver, times, ax, ay, resume, out)
+
+    # -- checkpoints: the water state and the pressure history beside the run's checkpoint ----
+    def _state_path(self, k):
+        return self.out / f"reservoir_state_{k:07d}.npz"
+
+    def _save(self, k):
+        arrs = {f"rows_{key}": np.asarray(v) for key, v in self.rows.items()}
+        if self.stepper is not None:
+            arrs.update({f"fluid_{key}": v for key, v in self.stepper.state().items()})
+        tmp = self.out / f".reservoir_state_{k:07d}.tmp.npz"
+        np.savez(tmp, **arrs)
+        tmp.replace(self._state_path(k))
+        for q in self.out.glob("reservoir_state_*.npz"):
+            if q != self._state_path(k):
+                q.unlink()
+
+    def _resume(self):
+        import json
+        if self.out is None:
+            raise ValueError("reservoir: --resume needs the results directory")
+        k = int(json.loads((self.out / "checkpoint.json").read_text())["step"])
+        path = self._state_path(k)
+        if not path.exists():
+            raise ValueError(f"--resume: {path.name} (the reservoir's state at the checkpoint, "
+                             f"step {k}) is missing in {self.out}; allowed: the directory of "
+                             "an interrupted run with the same [reservoir]")
+        d = np.load(path)
+        for key in self.rows:
+            self.rows[key] = list(d[f"rows_{key}"])
+        if self.stepper is not None:
+            self.stepper.p = d["fluid_p"].copy()
+            self.stepper.pd = d["fluid_pd"].copy()
+            self.stepper.pdd = d["fluid_pdd"].copy()
 
     def ground(self, t):
         """Ground acceleration at time t (linear between the record samples, as the loads)."""
@@ -81,6 +114,8 @@ class ReservoirRun:
         self.rows["Fy"].append(fy)
         for y, v in zip(self.ys, vals):
             self.rows[f"p_y{y:.2f}"].append(float(v))
+        if self.out is not None and self.every > 0 and k > 0 and k % self.every == 0:
+            self._save(k)                       # same schedule as run/checkpoint.py
         sc = self.scene
         if (p is not None and sc.output.vtk_every > 0 and k % sc.output.vtk_every == 0
                 and getattr(self, "_vtk_dir", None) is not None):
@@ -125,6 +160,8 @@ class ReservoirRun:
     # ------------------------------------------------------------------------------------
     def write(self, out, plots=True) -> list[str]:
         out = pathlib.Path(out)
+        for q in out.glob("reservoir_state_*.npz"):       # the run is complete
+            q.unlink()
         keys = list(self.rows)
         with open(out / "reservoir_pressure.csv", "w", newline="") as fh:
             w = csv.writer(fh)

@@ -121,7 +121,7 @@ def run(scene, outdir=None, resume: bool = False, progress: bool = True,
     if getattr(model, "reservoir", None) is not None:     # hydrodynamics (fe/reservoir.py)
         from ..out.reservoir_outputs import ReservoirRun
         Mrx, Mry = model.reservoir.seismic_vectors(Mrx, Mry)
-        rres = ReservoirRun.create(model, scene, solver, times, ax, ay, resume)
+        rres = ReservoirRun.create(model, scene, solver, times, ax, ay, resume, out)
         if plots and scene.output.vtk_every > 0:
             rres.enable_vtk(out)
     f_base = model.f_gravity + model.f_water + safety.extra_static_load(model.nfree)
