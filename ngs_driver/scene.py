@@ -576,6 +576,9 @@ def apply_overrides(raw: dict, overrides) -> dict:
                     raise ValueError(f"--set {item!r}: {'.'.join(parts)!r} is a table, "
                                      f"set one of its keys")
                 d[p] = val
+                if parts[:-1] == ["geometry"] and p in ("profile", "profile_file"):
+                    # an override of the section replaces the scene file's one
+                    d.pop("profile_file" if p == "profile" else "profile", None)
             else:
                 if not dataclasses.is_dataclass(t):
                     raise ValueError(f"--set {item!r}: {'.'.join(parts[:i + 1])!r} is not a "
