@@ -397,9 +397,11 @@ class AcousticReservoir:
         return (M_rx - self._Ma_r[0] + self._QHinv_g[0],
                 M_ry - self._Ma_r[1] + self._QHinv_g[1])
 
-    def pressure_incompressible(self, a_rel, agx, agy):
-        """p = -rho H^-1 (Q^T u'' + g_x a_gx + g_y a_gy)."""
-        return -self.rho * self._Hfac.solve(self.Q.T @ a_rel + self.g_x * agx + self.g_y * agy)
+    def pressure_incompressible(self, a_rel, agx, agy, g=None):
+        """p = -rho H^-1 (Q^T u'' + g_x a_gx + g_y a_gy) (g: other forcing vectors, e.g. b
+        alone when u'' is the total acceleration)."""
+        gx, gy = (self.g_x, self.g_y) if g is None else g
+        return -self.rho * self._Hfac.solve(self.Q.T @ a_rel + gx * agx + gy * agy)
 
     # --- compressible: coupled u-p system -------------------------------------------------
     def coupled(self, K, M, C):

@@ -32,12 +32,15 @@ class FluidStepper:
     ``commit(h)``.  ground(t) -> (a_gx, a_gy) at time t (linear between record samples, as the
     solver interpolates its loads)."""
 
-    def __init__(self, acoustic, solver, ground):
+    def __init__(self, acoustic, solver, ground, g=None):
         if solver.alpha_hht != 0.0:
             raise ValueError("reservoir: compressible water needs alpha_hht = 0 (Newmark)")
         self.ac = acoustic
         self.solver = solver
         self.ground = ground
+        # ground forcing of the fluid rows per unit a_g: (Q^T r + b) in the relative
+        # formulation, b alone when u is total (absorbing rock boundaries)
+        self.g = (acoustic.g_x, acoustic.g_y) if g is None else g
         W = acoustic.W
         n = W.free.size
         self.p = np.zeros(n)
@@ -77,7 +80,7 @@ class FluidStepper:
         """p = p' = 0 at rest; p'' from G p'' = -rho Q^T u'' - rho g a_g (compressible)."""
         s, ac = self.solver, self.ac
         agx, agy = self.ground(s.time)
-        r = -ac.rho * (ac.Q.T @ s.a + ac.g_x * agx + ac.g_y * agy)
+        r = -ac.rho * (ac.Q.T @ s.a + self.g[0] * agx + self.g[1] * agy)
         self.pdd = spl.splu(ac.W.G.tocsc()).solve(r) if ac.W.G.nnz else np.zeros_like(r)
 
     def rhs(self, h):
@@ -89,7 +92,7 @@ class FluidStepper:
         ubar = c0 * s.u + c2 * s.v + c3 * s.a
         bp = (W.G @ (c0 * self.p + c2 * self.pd + c3 * self.pdd)
               + W.Cf @ (c1 * self.p + c4 * self.pd + c5 * self.pdd)
-              + ac.rho * (ac.Q.T @ ubar) - ac.rho * (ac.g_x * agx + ac.g_y * agy))
+              + ac.rho * (ac.Q.T @ ubar) - ac.rho * (self.g[0] * agx + self.g[1] * agy))
         fac = self._entry(h)[0]
         y = fac.solve(bp)
         self._bp = (float(h), y)
@@ -110,3 +113,31 @@ class FluidStepper:
 
     def state(self) -> dict:
         return {"p": self.p, "pd": self.pd, "pdd": self.pdd}
+
+
+class GroundPressureLoad:
+    """Incompressible water when u is total (absorbing rock boundaries: the run zeroes M r a_g):
+    the pressure driven by the bottom / a rigid far end, -rho Q H^-1 b a_g(t), as a load in the
+    step's right-hand side (the face part is the added mass acting on the total acceleration)."""
+
+    def __init__(self, acoustic, solver, ground):
+        self.ground = ground
+        self.solver = solver
+        W = acoustic.W
+        self.vx = -acoustic.rho * (acoustic.Q @ acoustic._Hfac.solve(W.b_x))
+        self.vy = -acoustic.rho * (acoustic.Q @ acoustic._Hfac.solve(W.b_y))
+        self._zero = sp.csr_matrix((solver.ndof, solver.ndof))
+        solver.ext = self
+
+    def matrix(self, h):
+        return self._zero
+
+    def rhs(self, h):
+        agx, agy = self.ground(self.solver.time + h)
+        return self.vx * agx + self.vy * agy
+
+    def commit(self, h):
+        pass
+
+    def state(self) -> dict:
+        return {}

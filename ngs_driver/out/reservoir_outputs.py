@@ -31,9 +31,20 @@ class ReservoirRun:
             self.rows[f"p_y{y:.2f}"] = []
         self.out = None if out is None else pathlib.Path(out)
         self.every = scene.output.checkpoint_every
+        # absorbing rock boundaries: the run is in total displacements (the record enters as
+        # free-field forces), so the face's own motion is already in u'' and only the bottom /
+        # a rigid far end are driven by a_g
+        self.total = getattr(scene.geometry, "rock_sides", None) == "absorbing"
+        self.g = None
+        if self.ac is not None:
+            self.g = ((self.ac.W.b_x, self.ac.W.b_y) if self.total
+                      else (self.ac.g_x, self.ac.g_y))
         if self.ac is not None and not self.ac.incompressible:
             from ..fe.acoustic_newmark import FluidStepper
-            self.stepper = FluidStepper(self.ac, solver, self.ground)
+            self.stepper = FluidStepper(self.ac, solver, self.ground, self.g)
+        elif self.ac is not None and self.total:
+            from ..fe.acoustic_newmark import GroundPressureLoad
+            GroundPressureLoad(self.ac, solver, self.ground)
         if resume:
             self._resume()
         if self.ac is not None:
@@ -91,7 +102,7 @@ class ReservoirRun:
             return self.stepper.p
         if self.ac is not None:
             agx, agy = self.ground(s.time)
-            return self.ac.pressure_incompressible(s.a, agx, agy)
+            return self.ac.pressure_incompressible(s.a, agx, agy, self.g)
         return None
 
     def record(self, k, t):
@@ -104,7 +115,7 @@ class ReservoirRun:
             vals = self._station_values(p)
         else:                                   # Westergaard: p = -m(y) a_n,total on the face
             m = self.model
-            acc = s.a + m.r_x * agx + m.r_y * agy
+            acc = s.a if self.total else s.a + m.r_x * agx + m.r_y * agy
             f = -(self.res.added_mass @ acc)
             fx, fy = float(m.r_x @ f), float(m.r_y @ f)
             H = self.level
