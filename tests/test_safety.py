@@ -212,3 +212,16 @@ def test_resume_with_crack_dependent_uplift_and_screening(tmp_path):
     assert sb["safety"]["uplift_fixed_point_solves"] == sa["safety"]["uplift_fixed_point_solves"]
     assert sb["safety"]["joints"] == sa["safety"]["joints"]
     assert sb["post_earthquake"]["joints"] == sa["post_earthquake"]["joints"]
+
+
+def test_compare_results_md_carries_the_safety_table(elastic_run, tmp_path):
+    """`compare` (make run's results.md) lists each run's base FS: static, minimum, post-
+    earthquake and the 1.3 check, formatted from summary.json."""
+    from ngs_driver.out.report import compare_runs
+
+    out, s = elastic_run
+    compare_runs({"alpha2": out}, tmp_path)
+    txt = (tmp_path / "results.md").read_text()
+    fs = s["static"]["joints"]["base"]["sliding_fs"]
+    assert "Sliding safety of the base" in txt
+    assert f"| alpha2 | {fs:.3g} |" in txt and "| yes |" in txt

@@ -203,5 +203,29 @@ increments, and what we observe is reported in the table above.
                 f"{_fmt(a[1.0]['t_first_debond'], '{:.3f} s')} (alpha = 1); D_heel = 1 at "
                 f"{_fmt(t1, '{:.3f} s')} (alpha = 2), "
                 f"{_fmt(a[1.0]['t_D_heel_reaches_1'], '{:.3f} s')} (alpha = 1).\n")
+    txt += safety_table(data)
     txt += "\nRuns: " + ", ".join(f"{k}: `{v}`" for k, v in runs.items()) + "\n"
     return txt
+
+
+def safety_table(data) -> str:
+    """The base's sliding safety of each run (issue #13; docs/decisions.md §9); empty for runs
+    written before the safety outputs existed."""
+    rows = []
+    for k, (s, H, Dp) in data.items():
+        st = ((s.get("static") or {}).get("joints") or {}).get("base")
+        if st is None:
+            continue
+        d = ((s.get("safety") or {}).get("joints") or {}).get("base", {})
+        pe = ((s.get("post_earthquake") or {}).get("joints") or {}).get("base", {})
+        rows.append(f"| {k} | {st['sliding_fs']:.3g} | {_fmt(d.get('min_sliding_fs'))} | "
+                    f"{_fmt(d.get('time_fs_below_1'), '{:.3f} s')} | "
+                    f"{_fmt(d.get('residual_slip'), '{:.3g} m')} | "
+                    f"{_fmt(pe.get('sliding_fs'))} | "
+                    f"{'yes' if pe.get('meets_criterion') else 'NO'} |")
+    if not rows:
+        return ""
+    return ("\n## Sliding safety of the base (FS = (f N' + c L_bonded)/|T|, EM 1110-2-2100 "
+            "eq. 3-1 with the law's f and c)\n\n| run | FS static | min FS | time FS < 1 | "
+            "residual slip | FS post-earthquake | >= 1.3 |\n|---|---|---|---|---|---|---|\n"
+            + "\n".join(rows) + "\n")
