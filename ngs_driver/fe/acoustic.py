@@ -254,7 +254,7 @@ def water_matrices(mesh, c: float, compressible: bool, alpha: float, far_end: st
         f.Assemble()
         return vec(f)[free]
 
-    from .reservoir import face_normal_cf
+    from .face import face_normal_cf
     n = face_normal_cf()
     # out of the water: bottom n = (0, -1), far end n = (-1, 0)
     b_y = -lin(s * ngs.ds("reservoir_bottom")) if not math.isinf(q) else np.zeros(nf)
@@ -340,7 +340,7 @@ class AcousticReservoir:
     def build(cls, res, mesh, fes, free, rho, components=None, order=1, bands=None):
         import ngsolve as ngs
 
-        from .reservoir import dam_normal_trial_test
+        from .face import dam_normal_trial_test
 
         W = water_matrices(mesh, res.sound_speed, res.compressible, res.bottom_reflection,
                            res.far_end, order=1)

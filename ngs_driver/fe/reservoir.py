@@ -17,6 +17,7 @@ from typing import Any
 import numpy as np
 import scipy.sparse as sp
 
+from .face import dam_normal_trial_test, region_bands
 from .ngs_helpers import to_scipy
 
 # quadrature: sqrt(H - y) has an unbounded derivative at the water line (a mesh vertex), so the
@@ -44,52 +45,6 @@ class ReservoirModel:
         if self.acoustic is not None and self.acoustic.incompressible:
             return self.acoustic.seismic_vectors(M_rx, M_ry)
         return M_rx, M_ry
-
-
-def face_normal_cf():
-    """Unit normal of the upstream face pointing from the water into the dam (+x side): the
-    mesh normal's sign is not reliable on internal or merged boundaries, so it is fixed by its
-    x-component (an upstream face that the water can wet has n_x != 0)."""
-    import ngsolve as ngs
-
-    n = ngs.specialcf.normal(2)
-    return ngs.IfPos(n[0], 1.0, -1.0) * n
-
-
-def dam_normal_trial_test(fes, components, bands=None):
-    """(u . n, v . n) of the dam displacement on the face: the sum over the dam fields of a
-    product space (components: their indices), or the space itself (components None).  With
-    lift joints each block's field is weighted by the indicator of its elevation band
-    (bands: [(y_lo, y_hi)] per component): a block's field also has a trace on the face edges
-    next to its joint vertex, which would count that edge twice (measured: Q^T r_x off by 20 %
-    at the joint's pressure DOF)."""
-    import ngsolve as ngs
-
-    n = face_normal_cf()
-    u, v = fes.TnT()
-    if components is None:
-        return u * n, v * n
-    if bands is None:
-        bands = [None] * len(components)
-
-    def chi(b):
-        if b is None:
-            return 1.0
-        return ngs.IfPos(ngs.y - b[0], 1.0, 0.0) * ngs.IfPos(b[1] - ngs.y, 1.0, 0.0)
-
-    un = sum(chi(b) * (u[k] * n) for k, b in zip(components, bands))
-    vn = sum(chi(b) * (v[k] * n) for k, b in zip(components, bands))
-    return un, vn
-
-
-def region_bands(mesh, regions):
-    """(y_min, y_max) of each region's vertices (the dam blocks between lift joints)."""
-    out = []
-    for r in regions:
-        ys = [mesh.vertices[v.nr].point[1] for el in mesh.Materials(r).Elements()
-              for v in el.vertices]
-        out.append((min(ys), max(ys)))
-    return out
 
 
 def westergaard_added_mass(fes, free: np.ndarray, level: float, water_density: float,
@@ -162,7 +117,7 @@ def frequency_response(model, k0_normal, k0_tangential, freqs_hz, eta: float = 0
     Ms = model.M - (res.added_mass if res.added_mass is not None else 0)
     Ms = sp.csr_matrix(Ms)
     W = ac.W
-    nu, npp = Kb.shape[0], W.free.size
+    nu = Kb.shape[0]
     cx = model.crest_dofs[0]
     ux = np.zeros(len(freqs_hz), complex)
     for i, f in enumerate(freqs_hz):
