@@ -21,13 +21,14 @@ is constant: factorised once per h (cached).  With u_lin = A^-1 rhs and S = B A^
     u = u_lin - c A^-1 B^T W phi(g),    g = g_lin - c S W phi(g).
 
 Newton runs on the gaps only: R(g) = g - g_lin + c S_:a W_a phi_a(g_a) = 0 (a: active points,
-phi != 0), exact Jacobian I + c S W (T - K0) (T - K0 = 0 at inactive points), solved by iterative
-refinement preconditioned with the LU of a reference Jacobian kept across iterations and steps
-plus a low-rank (Woodbury) correction over the points whose tangent moved away from it
-(``_jac_solve``). The columns S_:p are computed lazily (partial multi-right-hand-side solves
-on the interface DOFs, ``SparseFactor.restrict``) when a point first becomes active, cached per
-h. A^-1 rhs is split in its triangular halves so that a nonlinear step costs one forward and
-one backward sparse solve plus the closure of the interface DOFs (docs/decisions.md §6, #15).
+phi != 0), exact Jacobian I + c S W (T - K0) (T - K0 = 0 at inactive points). S is never formed:
+B_I = G Delta (Delta: the relative displacements of the paired dam/rock interface DOFs, r of
+them: 224 on the default Koyna mesh whatever the number of interface points; G sparse), so
+S = G Y G^T with Y = Delta (A^-1)_II Delta^T (r x r, from r partial solves once per h) and the
+Newton direction comes from an r x r LU by the push-through identity (``_jac_solve``). A^-1 rhs
+is split in its triangular halves so that a nonlinear step costs one forward and one backward
+sparse solve plus the closure of the interface DOFs (``SparseFactor.restrict``;
+docs/decisions.md §6, issue #15).
 """
 from __future__ import annotations
 
@@ -88,13 +89,47 @@ class StepReport:
     wall: float = 0.0
 
 
+def _relative_dofs(BI):
+    """B_I = G Delta with Delta the relative displacements of the interface DOFs.
+
+    A matching interface has every DOF of a dam-side node paired with one of the coincident
+    rock-side node whose column of B is exactly its negative (g = B (u_dam - u_rock)): then
+    Delta = E_dam^T - E_rock^T (r = |I| / 2 rows) and G = B_I[:, dam], exactly (no round-off).
+    Otherwise (non-matching interfaces) Delta = identity, G = B_I.  Returns (G csr, Delta^T csr).
+    """
+    C = sp.csc_matrix(BI)
+    C.sort_indices()
+    m = C.shape[1]
+    groups = {}
+    for j in range(m):
+        sl = slice(C.indptr[j], C.indptr[j + 1])
+        groups.setdefault(C.indices[sl].tobytes(), []).append(j)
+    pos, neg = [], []
+    for js in groups.values():
+        if len(js) != 2:
+            break
+        a, b = js
+        va = C.data[C.indptr[a]:C.indptr[a + 1]]
+        vb = C.data[C.indptr[b]:C.indptr[b + 1]]
+        if va.size == 0 or not np.array_equal(va, -vb):
+            break
+        pos.append(a)
+        neg.append(b)
+    else:
+        if 2 * len(pos) == m:
+            r = len(pos)
+            Dt = sp.csr_matrix((np.r_[np.ones(r), -np.ones(r)], (np.r_[pos, neg],
+                                np.r_[np.arange(r), np.arange(r)])), shape=(m, r))
+            return C[:, pos].tocsr(), Dt
+    return sp.csr_matrix(BI), sp.identity(m, format="csr")
+
+
 @dataclass
 class _Cache:
     """Per-step-size data of the condensed method."""
     factor: SparseFactor
-    S: np.ndarray | None = None          # (2 npts, 2 npts), columns valid where have[p]
-    have: np.ndarray | None = None       # (npts,) bool
-    jr: list | None = None               # [LU of J_ref, E_ref, {point: Y columns}, c]
+    Y: np.ndarray | None = None          # (r, r) Delta (A^-1)_II Delta^T, S = G Y G^T
+    GY: np.ndarray | None = None         # (2 npts, r) G Y
     base: bool = True                    # the nominal step's entry (never evicted)
 
 
@@ -118,20 +153,11 @@ class NewmarkSolver:
     method  : "condensed" (default) or "full" (re-factorising reference)
     line_search : backtracking on the residual norm
     max_cache : number of step sizes whose factorisation/S columns are kept
-    jacobian_tol : a point's tangent enters the low-rank correction of the reference Jacobian
-              when it differs from the reference one by more than jacobian_tol max K0
-    lowrank_max : more changed points than this refactorise the reference Jacobian
-    inner_rtol, inner_max : iterative refinement of the Newton direction (relative residual,
-              refinements before refactorising)
-    reference_every : reference Jacobians are dropped every so many steps (resume = bitwise
-              the uninterrupted run when checkpoints fall on multiples of it; 0: never)
     """
 
     def __init__(self, K, M, C, B, w, law, *, dt, beta=None, gamma=None, alpha_hht=0.0,
                  tol_residual=1e-8, tol_energy=1e-16, max_iter=25, min_dt=None,
-                 method="condensed", line_search=True, max_cache=6, active_tol=1e-12,
-                 lowrank_max=64, jacobian_tol=1e-4, inner_rtol=1e-9, inner_max=6,
-                 reference_every=10):
+                 method="condensed", line_search=True, max_cache=6, active_tol=1e-12):
         if method not in ("condensed", "full"):
             raise ValueError(f"NewmarkSolver method = {method!r} is not allowed; allowed: "
                              "'condensed', 'full'")
@@ -161,18 +187,16 @@ class NewmarkSolver:
         self.line_search = bool(line_search)
         self.max_cache = int(max_cache)
         self.active_tol = float(active_tol)
-        self.lowrank_max = int(lowrank_max)
-        self.inner_rtol = float(inner_rtol)
-        self.inner_max = int(inner_max)
-        self.reference_every = int(reference_every)
-        self.jacobian_tol = float(jacobian_tol)
-        self.stats = dict(jacobian_factorisations=0, lowrank_points=0, refinements=0)
+        self.stats = dict(jacobian_factorisations=0)
         self.law = law
         self._set_k0(law)
         self._wd = np.repeat(self.w, 2)                     # W on the (2 npts) gap vector
         self._Idofs = np.unique(self.B.indices)               # DOFs the interface touches
         self._BI = self.B[:, self._Idofs].tocsr()            # (2 npts, |I|)
         self._BIT = self._BI.T.tocsr()
+        # B_I = G Delta: Delta^T (|I| x r), G (2 npts x r) sparse; S = G (Delta X Delta^T) G^T
+        self._G, self._Dt = _relative_dofs(self._BI)
+        self._GT = self._G.T.tocsr()
         self._cache: OrderedDict = OrderedDict()
         self._static_cache = None
         self._Minv = None
@@ -290,23 +314,20 @@ class NewmarkSolver:
             self._cache.move_to_end(key)
         return e
 
-    def _ensure_cols(self, e: _Cache, pts):
-        """Compute the columns S[:, 2p:2p+2] = B A^-1 B_p^T for points ``pts`` not cached."""
-        if e.S is None:
-            e.S = np.zeros((2 * self.npts, 2 * self.npts))
-            e.have = np.zeros(self.npts, bool)
-        new = pts[~e.have[pts]]
-        if new.size == 0:
+    def _ensure_Y(self, e: _Cache):
+        """Y = Delta (A^-1)_II Delta^T (r x r) and G Y, once per step size: partial solves with
+        right-hand sides and wanted entries on the interface DOFs only (SparseFactor.restrict),
+        r of them (one per relative interface DOF), in blocks (bounded work memory)."""
+        if e.Y is not None:
             return
-        dofs = np.empty(2 * new.size, np.int64)
-        dofs[0::2] = 2 * new
-        dofs[1::2] = 2 * new + 1
-        # S[:, dofs] = B_I (A^-1)_II B_I^T[:, dofs]: partial solves (right-hand sides and the
-        # wanted entries on the interface DOFs I only; SparseFactor.restrict)
-        for k in range(0, dofs.size, 128):                # blocks: bounded work memory
-            blk = dofs[k:k + 128]
-            e.S[:, blk] = self._BI @ e.factor.solve_at(self._BIT[:, blk].toarray())
-        e.have[new] = True
+        Dt = self._Dt
+        r = Dt.shape[1]
+        XD = np.empty((Dt.shape[0], r))
+        for k in range(0, r, 128):
+            XD[:, k:k + 128] = e.factor.solve_at(Dt[:, k:k + 128].toarray())
+        Y = np.asarray(Dt.T @ XD)
+        e.Y = 0.5 * (Y + Y.T)                             # symmetric to round-off
+        e.GY = np.asarray(self._G @ e.Y)
 
     def _phi_mask(self, phi, g):
         """Points whose correction phi is not round-off of K0 g."""
@@ -394,19 +415,16 @@ class NewmarkSolver:
         wd, k0v = self._wd, self._k0v
         n2 = 2 * self.npts
         act = self._active.copy()
-        self._ensure_cols(e, np.flatnonzero(act))
-        S = e.S
         ad = self._dof_idx(np.flatnonzero(act))
+        if ad.size:
+            self._ensure_Y(e)
+        G = self._G
 
         def Smul(ad, y):
-            """S[:, ad] @ y without copying S when most columns are active."""
-            if ad.size == n2:
-                return S @ y
-            if 2 * ad.size >= n2:
-                yp = np.zeros(n2)
-                yp[ad] = y
-                return S @ yp
-            return S[:, ad] @ y
+            """S[:, ad] @ y = G Y G^T (y scattered on ad): never forms S (2 npts x 2 npts)."""
+            yp = np.zeros(n2)
+            yp[ad] = y
+            return e.GY @ (self._GT @ yp)
 
         g = g_lin - c * Smul(ad, wd[ad] * self._phi[ad]) if ad.size else g_lin.copy()
         gscale = max(np.linalg.norm(g_lin), self._gref)
@@ -417,7 +435,7 @@ class NewmarkSolver:
             newly = ~act & self._phi_mask(phi, g)
             if newly.any():
                 act = act | newly
-                self._ensure_cols(e, np.flatnonzero(newly))
+                self._ensure_Y(e)
                 ad = self._dof_idx(np.flatnonzero(act))
             R = g - g_lin
             if ad.size:
@@ -439,14 +457,13 @@ class NewmarkSolver:
             if status:
                 break
             it += 1
-            # Newton direction on all gaps: (I + c S W E) dg = -R, E = T - K0 at the active
-            # points (0 elsewhere), by the LU of a reference Jacobian kept across iterations and
-            # steps plus an exact low-rank (Woodbury) correction over the points whose tangent
-            # moved away from the reference one by more than jacobian_tol (docs §6, #15)
+            # exact Newton direction on all gaps: (I + c S W E) dg = -R, E = T - K0 at the
+            # active points (0 elsewhere), through the r x r system of the relative interface
+            # DOFs (``_jac_solve``)
             E = T - self._k0blk
             E[~act] = 0.0
             try:
-                dg = self._jac_solve(e, S, E, -R, c)
+                dg = self._jac_solve(e, E, -R, c)
             except (np.linalg.LinAlgError, ValueError):
                 return (False,) + (None,) * 6 + (it, rnorm)
             en = abs(np.dot(dg, wd * k0v * R))
@@ -474,112 +491,37 @@ class NewmarkSolver:
             u = u_lin if u_lin is not None else e.factor.backward(z_lin)
         return True, u, g, t, new, phia, act, it, rnorm
 
-    def _jac_solve(self, e, S, E, b, c):
-        """Solve J x = b, J = I + S blockdiag(c w_p E_p) the exact Jacobian (E = T - K0, zero
-        at inactive points), by iterative refinement to ``inner_rtol`` preconditioned with P:
+    def _jac_solve(self, e, E, b, c):
+        """Solve J x = b, J = I + S Dw the exact Jacobian of the gap residual (Dw = blockdiag
+        c w_p E_p, E = T - K0, zero at inactive points), with S = G Y G^T of rank r (the
+        relative displacements of the interface nodes, r = 224 on the default Koyna mesh,
+        whatever the number of interface points):
 
-        P = J_ref + S_:k blockdiag(c w dE_k) E_k^T,  J_ref = I + S blockdiag(c w E_ref)
-        LU-factorised once and kept (per step size), dE = E - E_ref over the m points k where
-        it exceeds jacobian_tol max K0 (P is J there: exact), by Woodbury
+            J^-1 b = b - G Y K^-1 G^T Dw b,      K = I_r + (G^T Dw G) Y   (r x r, dense LU),
 
-            P^-1 r = x0 - Y_k C^-1 blockdiag(c w dE_k) x0_k,  x0 = J_ref^-1 r, Y_k = J_ref^-1 S_:k,
-            C = I + blockdiag(c w dE_k) Y_k[k, :]     (2m x 2m).
-
-        ||P^-1 (J - P)|| ~ jacobian_tol, so one or two refinements reach inner_rtol; the Newton
-        direction is then the exact one to round-off, whatever J_ref is (so the iterates do not
-        depend on when J_ref was factorised: a resumed run equals an uninterrupted one). The
-        columns Y_k are cached with J_ref; more than ``lowrank_max`` changed points, a singular
-        C or a slow refinement refactorise J_ref at the current E."""
+        (push-through identity, exact). G^T Dw G is sparse; nothing of size (2 npts)^2."""
         cw = c * self.w
-        Dw = E * cw[:, None, None]
-        n2 = b.size
-
-        d00, d01, d10, d11 = Dw[:, 0, 0], Dw[:, 0, 1], Dw[:, 1, 0], Dw[:, 1, 1]
-
-        def Jmul(x):
-            y = np.empty_like(x)
-            x0, x1 = x[0::2], x[1::2]
-            y[0::2] = d00 * x0 + d01 * x1
-            y[1::2] = d10 * x0 + d11 * x1
-            return x + S @ y
-
-        jr = e.jr
-        ch = None
-        fresh = False
-        if jr is not None and jr[3] == c:
-            dE = E - jr[1]
-            ch = np.flatnonzero(np.abs(dE).reshape(-1, 4).max(axis=1)
-                                > self.jacobian_tol * self.k0.max())
-            if ch.size > self.lowrank_max:
-                jr = None
-        else:
-            jr = None
-        if jr is None:
-            J = np.empty_like(S)
-            S0 = S[:, 0::2]
-            S1 = S[:, 1::2]
-            J[:, 0::2] = S0 * Dw[:, 0, 0] + S1 * Dw[:, 1, 0]
-            J[:, 1::2] = S0 * Dw[:, 0, 1] + S1 * Dw[:, 1, 1]
-            J[np.diag_indices_from(J)] += 1.0
-            lu = sla.lu_factor(J, check_finite=False, overwrite_a=True)
-            self.stats["jacobian_factorisations"] += 1
-            jr = e.jr = [lu, E.copy(), {}, c]
-            ch = np.zeros(0, np.int64)
-            fresh = True
-        lu, _, Ycols, _ = jr
-        if ch.size:
-            need = [p for p in ch.tolist() if p not in Ycols]
-            if need:
-                nd = self._dof_idx(np.asarray(need, np.int64))
-                Yn = sla.lu_solve(lu, S[:, nd], check_finite=False)
-                for q, p in enumerate(need):
-                    Ycols[p] = Yn[:, 2 * q:2 * q + 2]
-            m = ch.size
-            kd = self._dof_idx(ch)
-            Yk = np.empty((n2, 2 * m))
-            for q, p in enumerate(ch.tolist()):
-                Yk[:, 2 * q:2 * q + 2] = Ycols[p]
-            dW = dE[ch] * cw[ch][:, None, None]
-            C = np.einsum("pij,pjk->pik", dW, Yk[kd, :].reshape(m, 2, 2 * m)).reshape(2 * m,
-                                                                                       2 * m)
-            C[np.diag_indices_from(C)] += 1.0
-            Clu = sla.lu_factor(C, check_finite=False, overwrite_a=True)
-            self.stats["lowrank_points"] += m
-
-        def Pinv(r):
-            x0 = _getrs(lu, r)
-            if ch.size:
-                z = _getrs(Clu, np.einsum("pij,pj->pi", dW, x0[kd].reshape(m, 2)).ravel())
-                x0 -= Yk @ z
-            return x0
-
-        x = Pinv(b)
-        if self.inner_max == 0:          # modified Newton on the unchanged points
-            if np.all(np.isfinite(x)):
-                return x
-            if fresh:
-                raise np.linalg.LinAlgError("interface Jacobian: non-finite solution")
-            e.jr = None
-            return self._jac_solve(e, S, E, b, c)
-        bn = np.linalg.norm(b)
-        prev = np.inf
-        for k in range(self.inner_max):
-            r = b - Jmul(x)
-            rn = np.linalg.norm(r)
-            if not np.isfinite(rn):
-                break
-            # converged, or (P = J: the LU of this very matrix) at its round-off floor
-            if rn <= self.inner_rtol * bn or (fresh and rn >= 0.5 * prev):
-                self.stats["refinements"] += k
-                return x
-            prev = rn
-            x += Pinv(r)
-        if fresh:
-            if np.all(np.isfinite(x)):
-                return x
+        d00, d01 = E[:, 0, 0] * cw, E[:, 0, 1] * cw
+        d10, d11 = E[:, 1, 0] * cw, E[:, 1, 1] * cw
+        # (G^T Dw G) Y = G^T (Dw (G Y)): the point blocks of Dw on the rows of G Y
+        GY = e.GY
+        DGY = np.empty_like(GY)
+        DGY[0::2] = d00[:, None] * GY[0::2] + d01[:, None] * GY[1::2]
+        DGY[1::2] = d10[:, None] * GY[0::2] + d11[:, None] * GY[1::2]
+        K = np.asarray(self._GT @ DGY)
+        K[np.diag_indices_from(K)] += 1.0
+        lu, piv, info = sla.lapack.dgetrf(K, overwrite_a=True)
+        if info != 0:
+            raise np.linalg.LinAlgError(f"interface Jacobian singular (dgetrf info {info})")
+        self.stats["jacobian_factorisations"] += 1
+        y = np.empty_like(b)
+        b0, b1 = b[0::2], b[1::2]
+        y[0::2] = d00 * b0 + d01 * b1
+        y[1::2] = d10 * b0 + d11 * b1
+        x = b - GY @ _getrs((lu, piv), self._GT @ y)
+        if not np.all(np.isfinite(x)):
             raise np.linalg.LinAlgError("interface Jacobian: non-finite solution")
-        e.jr = None                    # slow refinement: refactorise at the current E
-        return self._jac_solve(e, S, E, b, c)
+        return x
 
     def _newton_full(self, h, rhs, c):
         law, state = self.law, self.state
@@ -695,12 +637,6 @@ class NewmarkSolver:
         self._static_cache = None        # the static factorisation is not needed any more
         f_next = np.asarray(f_next, dtype=float)
         f_start = self.f if self.f is not None else f_next
-        # the reference Jacobians are dropped at every reference_every-th step, so that the
-        # iterates are a function of the committed state there: a run resumed from a
-        # checkpoint at such a step repeats the uninterrupted one bit for bit
-        if self.reference_every > 0 and round(self.time / self.dt) % self.reference_every == 0:
-            for e in self._cache.values():
-                e.jr = None
         pos = Fraction(0)
         hf = Fraction(1)
         while pos < 1:
