@@ -70,6 +70,11 @@ class InterfaceState:
         return cls(*(np.array(d[f.name], dtype=np.float64) for f in fields(cls)))
 
 
+def _flat(a):
+    """The flat C-order view of ``a`` (a C-contiguous copy first if ``a`` is strided)."""
+    return (a if a.flags.c_contiguous else np.ascontiguousarray(a)).reshape(-1)
+
+
 class InterfaceLaw:
     """The material-point interface law of Paggi, Ferro & Braga (2013), §3.
 
@@ -109,6 +114,9 @@ class InterfaceLaw:
         self._con = None if contact is None else tuple(map(float, contact.as_array(cohesive)))
         self._fri = None if friction is None else tuple(map(float, friction.as_array(cohesive)))
         self._dmg = None if damage is None else tuple(map(float, damage.as_array(cohesive)))
+        # the kernel specialisation: exponents 0, 1, 2 only -> no pow call, vectorised loop
+        self._fast = _kernels.is_fast(self._con, self._dmg)
+        self._parts = (contact is None, friction is None, damage is None)
 
     def __repr__(self):
         return (f"InterfaceLaw({self.cohesive}, contact={self.contact}, "
@@ -199,19 +207,28 @@ class InterfaceLaw:
         n, dim = gap.shape
         if out is None:
             F = np.empty((n, dim))
-            T = np.zeros((n, dim, dim))
+            T = np.empty((n, dim, dim))
             new = InterfaceState(np.empty(n), np.empty(n), np.empty(n),
                                  state.slip if self.friction is None else np.empty((n, dim - 1)),
                                  np.empty(n))
         else:
             F, T, new = out
+            for name, a in (("traction", F), ("tangent", T), *new.as_dict().items()):
+                if not a.flags.c_contiguous:
+                    raise ValueError(f"evaluate out: the {name} buffer is not C-contiguous; "
+                                     "allowed: C-contiguous float64 arrays (written in place)")
             if self.friction is None:
                 new.slip[...] = state.slip
         par = self.parallel if self.parallel is not None else n >= PARALLEL_MIN_POINTS
-        kern = _kernels.evaluate_parallel if par else _kernels.evaluate_serial
-        kern(gap, self._coh, self._con, self._fri, self._dmg, rdt,
-             state.kappa, state.damage, state.separation, state.slip, state.dissipated,
-             F, T, new.kappa, new.damage, new.separation, new.slip, new.dissipated)
+        key = (dim, self._fast)
+        kern = (_kernels.PARALLEL if par else _kernels.SERIAL)[key]
+        # the kernels index flat C-order views (vectorisation): copy any strided input
+        c = _flat
+        _kernels.call(kern, self._parts, c(gap), self._coh, self._con, self._fri, self._dmg,
+                      rdt, c(state.kappa), c(state.damage), c(state.separation),
+                      c(state.slip), c(state.dissipated), F.reshape(-1), T.reshape(-1),
+                      new.kappa, new.damage, new.separation, new.slip.reshape(-1),
+                      new.dissipated)
         return F, T, new
 
     def traction(self, gap, state, dt=None):

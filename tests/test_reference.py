@@ -1,4 +1,4 @@
-"""The numba kernel against the independent numpy reference (interfacelaw/reference.py), and the
+"""The numba kernel against the independent numpy reference (interfacelaw/testing.py), and the
 reference's tangent against finite differences. Specification: docs/decisions.md §1."""
 from __future__ import annotations
 
@@ -12,7 +12,7 @@ from hypothesis import strategies as st
 
 from interfacelaw import (CohesiveParams, ContactParams, DamageParams, FrictionParams,
                           InterfaceLaw, InterfaceState)
-from interfacelaw.reference import evaluate_reference
+from interfacelaw.testing import evaluate_reference
 
 COH = CohesiveParams(sigma_max=3.0e6, tau_max=2.0e6, l_Nc=1.0e-4, l_Tc=1.5e-4, lambda_max=0.3)
 RTOL = 1e-12

@@ -1,7 +1,16 @@
-"""Independent plain-numpy reference of the interface law (docs/decisions.md §1).
+"""Testing and benchmarking aids: not used by the law itself (issue #11).
 
-Written from the specification only, as a second implementation to cross-check the numba
-kernel (``interfacelaw/_kernels.py``) and as the "numpy reference" of the benchmarks. It is
+* :func:`evaluate_reference` — an independent plain-numpy implementation of the interface law
+  (docs/decisions.md §1). It is public, not a test fixture, because it is useful beyond this
+  repository's tests: a code that ports the law (a C/Fortran host of ``interfacelaw.cabi``, a
+  re-implementation in another FE code) can check its numbers against a second implementation
+  written from the specification, whose every branch is a readable ``np.where``.
+* :func:`copy_roofline` — a numba kernel that moves the same bytes as the law with no
+  arithmetic: the memory roofline the law's throughput is compared with (tests/bench).
+
+The reference was written from the specification only, as a second implementation to
+cross-check the numba kernel (``interfacelaw/_kernels.py``) and as the "numpy reference" of the
+benchmarks. It is
 vectorised over points: every branch is evaluated on all points and selected by masks with
 ``np.where``; divisors are made safe *before* dividing (``np.where`` evaluates both branches), so
 finite input never produces NaN.
@@ -17,10 +26,11 @@ Conventions at the kinks (sets of measure zero, where the tangent is one-sided):
 from __future__ import annotations
 
 import numpy as np
+from numba import njit, prange
 
 from .law import InterfaceState
 
-__all__ = ["evaluate_reference"]
+__all__ = ["evaluate_reference", "copy_roofline"]
 
 # the damage-rate coefficient (d Delta D / d Delta g ~ alpha (Delta g/g_max)^(alpha-1)/g_max)
 # is unbounded for alpha < 1 as Delta g -> 0+; it is capped here so that a subnormal Delta g
@@ -256,3 +266,22 @@ def _evaluate(law, gap, state, n, d, sig, tau, lN, lT, lm, dt):
 
     new = InterfaceState(kap, D_new, sep, sp_new, diss)
     return F, T, new
+
+
+@njit(cache=True, parallel=True)
+def copy_roofline(gap, kappa, dmg, sep, slip, diss, F, T, kappa_n, dmg_n, sep_n, slip_n,
+                  diss_n):
+    """Moves the same bytes as the law (reads gap and state, writes traction, tangent and
+    state) with no arithmetic: the memory roofline for the benchmark."""
+    dim = gap.shape[1]
+    for i in prange(gap.shape[0]):
+        for a in range(dim):
+            F[i, a] = gap[i, a]
+            for b in range(dim):
+                T[i, a, b] = gap[i, b]
+        kappa_n[i] = kappa[i]
+        dmg_n[i] = dmg[i]
+        sep_n[i] = sep[i]
+        for a in range(dim - 1):
+            slip_n[i, a] = slip[i, a]
+        diss_n[i] = diss[i]
