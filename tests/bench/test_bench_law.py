@@ -141,6 +141,8 @@ def same_run_ratios(n=10**6, rounds=15, before=None):
     if before is not None:
         spec = importlib.util.spec_from_file_location("kernels_before", before)
         old = importlib.util.module_from_spec(spec)
+        import sys
+        sys.modules["kernels_before"] = old      # importable by name: numba's cache needs it
         spec.loader.exec_module(old)
     numba.set_num_threads(1)
     cases = {}
