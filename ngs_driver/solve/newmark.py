@@ -130,6 +130,7 @@ class _Cache:
     factor: SparseFactor
     Y: np.ndarray | None = None          # (r, r) Delta (A^-1)_II Delta^T, S = G Y G^T
     GY: np.ndarray | None = None         # (2 npts, r) G Y
+    Z: dict = field(default_factory=dict)  # point -> (ndof, 2) A^-1 B_p^T (few active points)
     base: bool = True                    # the nominal step's entry (never evicted)
 
 
@@ -153,11 +154,14 @@ class NewmarkSolver:
     method  : "condensed" (default) or "full" (re-factorising reference)
     line_search : backtracking on the residual norm
     max_cache : number of step sizes whose factorisation/S columns are kept
+    few_max : up to this many active points u_lin is formed whole and u recovered from cached
+              columns A^-1 B_p^T (one solve per step, as a linear step); more: split solve
     """
 
     def __init__(self, K, M, C, B, w, law, *, dt, beta=None, gamma=None, alpha_hht=0.0,
                  tol_residual=1e-8, tol_energy=1e-16, max_iter=25, min_dt=None,
-                 method="condensed", line_search=True, max_cache=6, active_tol=1e-12):
+                 method="condensed", line_search=True, max_cache=6, active_tol=1e-12,
+                 few_max=16):
         if method not in ("condensed", "full"):
             raise ValueError(f"NewmarkSolver method = {method!r} is not allowed; allowed: "
                              "'condensed', 'full'")
@@ -186,6 +190,7 @@ class NewmarkSolver:
         self.method = method
         self.line_search = bool(line_search)
         self.max_cache = int(max_cache)
+        self.few_max = int(few_max)
         self.active_tol = float(active_tol)
         self.stats = dict(jacobian_factorisations=0)
         self.law = law
@@ -405,8 +410,10 @@ class NewmarkSolver:
         # A^-1 rhs split in its two triangular halves: with active points only the interface
         # entries of u_lin are formed now (the closure of I in U), and the one full backward
         # solve comes after Newton, on z - c L^-1 Pr B^T W phi (issue #15)
+        # With no or few (<= few_max) active points the whole u_lin is formed (one solve) and
+        # u is recovered from cached columns A^-1 B_p^T of the active points (e.Z).
         z_lin = e.factor.forward(rhs)
-        if self._active.any():
+        if int(self._active.sum()) > self.few_max:
             u_lin = None
             g_lin = self._BI @ e.factor.backward_at(z_lin)
         else:
@@ -463,7 +470,7 @@ class NewmarkSolver:
             E = T - self._k0blk
             E[~act] = 0.0
             try:
-                dg = self._jac_solve(e, E, -R, c)
+                dg = self._jac_solve(e, E, -R, c, ad)
             except (np.linalg.LinAlgError, ValueError):
                 return (False,) + (None,) * 6 + (it, rnorm)
             en = abs(np.dot(dg, wd * k0v * R))
@@ -485,13 +492,25 @@ class NewmarkSolver:
         # the forward part only visits the closure of the interface rows
         phia = np.zeros_like(phi)
         phia[ad] = phi[ad]
-        if ad.size:
-            u = e.factor.backward(z_lin - c * e.factor.forward_sparse(self._BIT @ (wd * phia)))
-        else:
+        pa = ad[0::2] // 2
+        if not ad.size:
             u = u_lin if u_lin is not None else e.factor.backward(z_lin)
+        elif u_lin is not None and pa.size <= self.few_max:
+            new_p = [p for p in pa.tolist() if p not in e.Z]
+            if new_p:
+                nd = self._dof_idx(np.asarray(new_p, np.int64))
+                Zn = e.factor.solve(self.BT[:, nd].toarray())
+                for q, p in enumerate(new_p):
+                    e.Z[p] = Zn[:, 2 * q:2 * q + 2]
+            Za = np.hstack([e.Z[p] for p in pa.tolist()])
+            u = u_lin - c * (Za @ (wd[ad] * phi[ad]))
+        elif u_lin is not None:
+            u = u_lin - c * e.factor.backward(e.factor.forward_sparse(self._BIT @ (wd * phia)))
+        else:
+            u = e.factor.backward(z_lin - c * e.factor.forward_sparse(self._BIT @ (wd * phia)))
         return True, u, g, t, new, phia, act, it, rnorm
 
-    def _jac_solve(self, e, E, b, c):
+    def _jac_solve(self, e, E, b, c, ad):
         """Solve J x = b, J = I + S Dw the exact Jacobian of the gap residual (Dw = blockdiag
         c w_p E_p, E = T - K0, zero at inactive points), with S = G Y G^T of rank r (the
         relative displacements of the interface nodes, r = 224 on the default Koyna mesh,
@@ -499,7 +518,23 @@ class NewmarkSolver:
 
             J^-1 b = b - G Y K^-1 G^T Dw b,      K = I_r + (G^T Dw G) Y   (r x r, dense LU),
 
-        (push-through identity, exact). G^T Dw G is sparse; nothing of size (2 npts)^2."""
+        (push-through identity, exact). G^T Dw G is sparse; nothing of size (2 npts)^2.
+        Few active points (2 m < r, the gap DOFs ``ad``): the same identity on their columns,
+        J^-1 b = b - S_:a (I + Dw_a S_aa)^-1 Dw_a b_a with S_:a = G Y G_a^T (2m x 2m system)."""
+        if ad.size < e.Y.shape[0]:
+            Sa = e.GY @ self._GT[:, ad].toarray()                  # (2 npts, 2m)
+            m = ad.size // 2
+            pa = ad[0::2] // 2
+            Dw = E[pa] * (c * self.w[pa])[:, None, None]          # (m, 2, 2)
+            C = np.einsum("pij,pjk->pik", Dw, Sa[ad].reshape(m, 2, ad.size)).reshape(
+                ad.size, ad.size)
+            C[np.diag_indices_from(C)] += 1.0
+            z = np.linalg.solve(C, np.einsum("pij,pj->pi", Dw, b[ad].reshape(m, 2)).ravel())
+            self.stats["jacobian_factorisations"] += 1
+            x = b - Sa @ z
+            if not np.all(np.isfinite(x)):
+                raise np.linalg.LinAlgError("interface Jacobian: non-finite solution")
+            return x
         cw = c * self.w
         d00, d01 = E[:, 0, 0] * cw, E[:, 0, 1] * cw
         d10, d11 = E[:, 1, 0] * cw, E[:, 1, 1] * cw
