@@ -811,6 +811,46 @@ def part7(res, quick=False, n_meas=20):
     plot7(res)
 
 
+def part8(res, start=START, n=200):
+    """Target 2 per step: the 0.2x step (scene law) against the step of the issue's elastic
+    run (record x 0.001, interface.damage = false), same model, same record times, interleaved;
+    medians of the CPU time of this process and of the wall time."""
+    scn = scene(list(NL_SET))
+    scl = scene(list(LIN_SET))
+    m = model_of(scn)
+    a0a1 = rayleigh(m, scn)
+    fsn, fkn, _, _ = loads(m, scn, n + 30, start=start)
+    fsl, fkl, _, _ = loads(m, scl, n + 30, start=start)
+    sn = make_solver(m, scene_law(scn), a0a1)
+    sl = make_solver(m, scene_law(scl), a0a1)
+    start_solver(sn, fsn, fkn)
+    start_solver(sl, fsl, fkl)
+    for k in range(1, 11):
+        sn.step(fkn(k))
+        sl.step(fkl(k))
+    cn, cl, wn, wl = [], [], [], []
+    la0 = loadavg()
+    for k in range(11, 11 + n):
+        c0 = time.process_time()
+        wn.append(sn.step(fkn(k)).wall)
+        cn.append(time.process_time() - c0)
+        c0 = time.process_time()
+        wl.append(sl.step(fkl(k)).wall)
+        cl.append(time.process_time() - c0)
+    out = {"start": start, "n": n, "nfree": int(m.nfree), "npts": int(m.interface.npts),
+           "nl_cpu_ms": 1e3 * float(np.median(cn)), "lin_cpu_ms": 1e3 * float(np.median(cl)),
+           "ratio_cpu": float(np.median(cn) / np.median(cl)),
+           "nl_wall_ms": 1e3 * float(np.median(wn)), "lin_wall_ms": 1e3 * float(np.median(wl)),
+           "newton_nl": float(np.mean([r.iterations for r in sn.history[-n:]])),
+           "newton_lin": float(np.mean([r.iterations for r in sl.history[-n:]])),
+           "active_nl": int(sn.history[-1].n_active), "active_lin": int(sl.history[-1].n_active),
+           "loadavg": [la0, loadavg()]}
+    res["part8"] = out
+    print(f"[8] per step CPU: nonlinear {out['nl_cpu_ms']:.2f} ms, elastic {out['lin_cpu_ms']:.2f}"
+          f" ms, ratio {out['ratio_cpu']:.2f}", flush=True)
+    save(res)
+
+
 def plot7(res):
     import matplotlib
     matplotlib.use("Agg")
@@ -846,7 +886,8 @@ def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--parts", default="1,2,3,4",
                     help="1-4: issue #7; 5: #15 target 2 + memory, 6: #15 target 5 (full "
-                         "intensity), 7: #15 target 3 (scaling)")
+                         "intensity), 7: #15 target 3 (scaling), 8: #15 target 2 per step "
+                         "(CPU time, interleaved)")
     ap.add_argument("--repeats", type=int, default=3)
     ap.add_argument("--alpha1", action="store_true", help="also the full run with alpha = 1")
     ap.add_argument("--default-stop", action="store_true",
@@ -885,6 +926,8 @@ def main(argv=None) -> int:
         part6(res)
     if 7 in parts:
         part7(res)
+    if 8 in parts:
+        part8(res)
     ratios(res)
     res["loadavg_end"] = loadavg()
     save(res)

@@ -72,6 +72,20 @@ def main(argv=None) -> int:
         out += ["", "## Koyna (issue #7)", "",
                 "Not run here: `python verification/bench_koyna.py` writes "
                 "verification/out/bench_koyna.json, then rerun this script."]
+    # hand-written sections of other studies (IDA, law kernel, solver speed of issue #15, ...)
+    # are kept as they are, after the generated ones
+    if dst.exists():
+        generated = ("## Ratios (same run)", "## Koyna dam (issue #7)", "## Koyna (issue #7)")
+        sec = None
+        for line in dst.read_text().splitlines():
+            if line.startswith("## ") or line.startswith("# "):
+                sec = None if line.startswith(generated) or line.startswith("# ") else [line]
+                if sec is not None:
+                    out += [""] if out[-1] != "" else []
+            elif sec is None:
+                continue
+            if sec is not None:
+                out.append(line)
     dst.write_text("\n".join(out) + "\n")
     print(f"wrote {dst}")
     return 0
