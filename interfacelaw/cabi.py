@@ -21,9 +21,12 @@ What a C, C++ or Fortran host calls (docs/using_the_law.md has the whole calling
        3 dt not > 0 and finite for the rate damage form: nothing is written then */
 
 All arrays are C-contiguous (row-major) float64 and must not overlap (the new state must not be
-the committed one). The function is the same compiled kernel as ``InterfaceLaw.evaluate``
-(``interfacelaw._kernels.evaluate_serial``), so it returns the same numbers; it runs serially
-and keeps no state: a host may call it from several threads on disjoint arrays at once.
+the committed one). The function runs the point law of ``InterfaceLaw.evaluate``
+(``interfacelaw._kernels._law``) in the kernel's generic scalar loop
+``interfacelaw._kernels.evaluate_serial`` (one compiled loop for both dims and every parameter
+value; not the vectorised loops ``InterfaceLaw`` uses), so it returns the same numbers
+(tests/test_cabi.py: to round-off, measured bit-identical); it runs serially and keeps no
+state: a host may call it from several threads on disjoint arrays at once.
 
 Which optional parts (contact, friction, damage) the law has is fixed at compile time, as in
 ``InterfaceLaw``: :func:`evaluate_cfunc` compiles one function per combination (cached per
