@@ -85,13 +85,18 @@ def _norm(x, y):
 @njit(cache=True, error_model="numpy")
 def _point(gN, gT1, gT2, ko, Do, sepo, s1, s2, coh, contact, friction, damage, rdt):
     """One material point, scalars in, scalars out (the general specialisation of _law)."""
-    return _law(gN, gT1, gT2, ko, Do, sepo, s1, s2, coh, contact, friction, damage, rdt, False)
+    return _law(gN, gT1, gT2, ko, Do, sepo, s1, s2, coh, contact, friction, damage, rdt, False,
+                True)
 
 
 @njit(cache=True, inline="always", error_model="numpy")
-def _law(gN, gT1, gT2, ko, Do, sepo, s1, s2, coh, contact, friction, damage, rdt, fast):
+def _law(gN, gT1, gT2, ko, Do, sepo, s1, s2, coh, contact, friction, damage, rdt, fast,
+         three):
     """One material point, scalars in, scalars out (no arrays: nothing to reference-count).
     ``fast`` (compile-time constant): the law's exponents are 0, 1 or 2 (is_fast).
+    ``three``: 3D; False (a compile-time constant in the 2D loops) drops the arithmetic on the
+    absent second tangential component (gT2 = s2 = 0): without fast-math LLVM cannot fold
+    ``0/l`` or ``x + 0*y`` itself (inf and -0), and those are divisions and a sqrt per point.
 
     damage = (alpha, beta, g_max, F_th/sigma_max, form code: 0 paper, 1 objective, 2 rate);
     rdt = dt/t_ref of the step (rate form only; > 0 and finite, checked by the caller).
@@ -109,8 +114,8 @@ def _law(gN, gT1, gT2, ko, Do, sepo, s1, s2, coh, contact, friction, damage, rdt
     # divisions, not reciprocals: a gap of exactly l_Nc (or l_Tc) must give lambda = 1 exactly
     u = gNp / lN
     t1 = gT1 / lT
-    t2 = gT2 / lT
-    v2 = t1 * t1 + t2 * t2                          # |g_T|^2 / l_Tc^2
+    t2 = gT2 / lT if three else 0.0
+    v2 = t1 * t1 + t2 * t2 if three else t1 * t1    # |g_T|^2 / l_Tc^2
     lam = np.sqrt(u * u + v2)
 
     bonded_old = ko < 1.0 and Do < 1.0
@@ -126,16 +131,16 @@ def _law(gN, gT1, gT2, ko, Do, sepo, s1, s2, coh, contact, friction, damage, rdt
         ilam = 1.0 / lam
         dk0 = u * ilN * ilam
         dk1 = t1 * ilT * ilam
-        dk2 = t2 * ilT * ilam
+        dk2 = t2 * ilT * ilam if three else 0.0
 
     # a = grad(Q/2): a0 = sig <gN>/lN, aT = tau lN/lT^2 gT ; H = d a / d gap (diagonal)
     a0 = sig * u
     a1 = kT * gT1
-    a2 = kT * gT2
+    a2 = kT * gT2 if three else 0.0
     H0 = sig * ilN * hN
 
     # separation for damage (docs §1.5): g = hypot(<gN>, |gT|)
-    gs = np.sqrt(gNp * gNp + gT1 * gT1 + gT2 * gT2)
+    gs = np.sqrt(gNp * gNp + gT1 * gT1 + gT2 * gT2) if three else np.sqrt(gNp * gNp + gT1 * gT1)
 
     # ---- cyclic damage, Eq. 7 ------------------------------------------------------------
     Dn = Do
@@ -147,7 +152,7 @@ def _law(gN, gT1, gT2, ko, Do, sepo, s1, s2, coh, contact, friction, damage, rdt
             dg = gs - sepo
             if dg > 0.0:
                 alpha, beta, gmax, fth, form = damage
-                amag2 = a0 * a0 + a1 * a1 + a2 * a2
+                amag2 = a0 * a0 + a1 * a1 + a2 * a2 if three else a0 * a0 + a1 * a1
                 if fth == 0.0 and beta == 0.0:       # r > 0 <=> s > 0 and |a| > 0: no sqrt
                     amag = 1.0
                     x = 1.0 if (s > 0.0 and amag2 > 0.0) else 0.0
@@ -216,7 +221,8 @@ def _law(gN, gT1, gT2, ko, Do, sepo, s1, s2, coh, contact, friction, damage, rdt
             q = lN * (sig * u * u + tau * v2) / (lam * lam)
             dphi += (1.0 - Do) * 0.5 * q * (hi - lo) * ilm1
     if Dn > Do:
-        dphi += 0.5 * s * (a0 * gNp + a1 * gT1 + a2 * gT2) * (Dn - Do)
+        ag = a0 * gNp + a1 * gT1 + a2 * gT2 if three else a0 * gNp + a1 * gT1
+        dphi += 0.5 * s * ag * (Dn - Do)
 
     # ---- contact, docs §1.3 -----------------------------------------------------------------
     FNc = 0.0
@@ -261,8 +267,8 @@ def _law(gN, gT1, gT2, ko, Do, sepo, s1, s2, coh, contact, friction, damage, rdt
         if (not bonded) and FNc < 0.0:
             f, CT = friction
             tr1 = CT * (gT1 - s1)
-            tr2 = CT * (gT2 - s2)
-            trm = _norm(tr1, tr2)
+            tr2 = CT * (gT2 - s2) if three else 0.0
+            trm = _norm(tr1, tr2) if three else abs(tr1)
             lim = -f * FNc
             if trm <= lim:                                  # stick
                 F1 += tr1
@@ -271,13 +277,16 @@ def _law(gN, gT1, gT2, ko, Do, sepo, s1, s2, coh, contact, friction, damage, rdt
                 T22 += CT
             else:                                           # slip
                 nn1 = tr1 / trm
-                nn2 = tr2 / trm
+                nn2 = tr2 / trm if three else 0.0
                 F1 += lim * nn1
                 F2 += lim * nn2
                 dl = (trm - lim) / CT
                 n1 = s1 + dl * nn1
                 n2 = s2 + dl * nn2
-                dphi += lim * (nn1 * (n1 - s1) + nn2 * (n2 - s2))
+                if three:
+                    dphi += lim * (nn1 * (n1 - s1) + nn2 * (n2 - s2))
+                else:
+                    dphi += lim * (nn1 * (n1 - s1))
                 T10 += -f * dFNc0 * nn1
                 T20 += -f * dFNc0 * nn2
                 rr = lim * CT / trm
@@ -300,7 +309,7 @@ def _run2_fast(g, coh, contact, friction, damage, rdt, kappa, dmg, sep, sl, diss
                F, T, kappa_n, dmg_n, sep_n, sl_n, diss_n):
     for i in range(kappa.shape[0]):
         r = _law(g[2 * i], g[2 * i + 1], 0.0, kappa[i], dmg[i], sep[i], sl[i], 0.0,
-                 coh, contact, friction, damage, rdt, True)
+                 coh, contact, friction, damage, rdt, True, False)
         F[2 * i] = r[0]
         F[2 * i + 1] = r[1]
         T[4 * i] = r[3]
@@ -320,7 +329,7 @@ def _run2_general(g, coh, contact, friction, damage, rdt, kappa, dmg, sep, sl, d
                   F, T, kappa_n, dmg_n, sep_n, sl_n, diss_n):
     for i in range(kappa.shape[0]):
         r = _law(g[2 * i], g[2 * i + 1], 0.0, kappa[i], dmg[i], sep[i], sl[i], 0.0,
-                 coh, contact, friction, damage, rdt, False)
+                 coh, contact, friction, damage, rdt, False, False)
         F[2 * i] = r[0]
         F[2 * i + 1] = r[1]
         T[4 * i] = r[3]
@@ -340,7 +349,7 @@ def _run3_fast(g, coh, contact, friction, damage, rdt, kappa, dmg, sep, sl, diss
                F, T, kappa_n, dmg_n, sep_n, sl_n, diss_n):
     for i in range(kappa.shape[0]):
         r = _law(g[3 * i], g[3 * i + 1], g[3 * i + 2], kappa[i], dmg[i], sep[i],
-                 sl[2 * i], sl[2 * i + 1], coh, contact, friction, damage, rdt, True)
+                 sl[2 * i], sl[2 * i + 1], coh, contact, friction, damage, rdt, True, True)
         F[3 * i] = r[0]
         F[3 * i + 1] = r[1]
         F[3 * i + 2] = r[2]
@@ -367,7 +376,7 @@ def _run3_general(g, coh, contact, friction, damage, rdt, kappa, dmg, sep, sl, d
                   F, T, kappa_n, dmg_n, sep_n, sl_n, diss_n):
     for i in range(kappa.shape[0]):
         r = _law(g[3 * i], g[3 * i + 1], g[3 * i + 2], kappa[i], dmg[i], sep[i],
-                 sl[2 * i], sl[2 * i + 1], coh, contact, friction, damage, rdt, False)
+                 sl[2 * i], sl[2 * i + 1], coh, contact, friction, damage, rdt, False, True)
         F[3 * i] = r[0]
         F[3 * i + 1] = r[1]
         F[3 * i + 2] = r[2]
@@ -462,7 +471,7 @@ def evaluate_serial(gap, coh, contact, friction, damage, rdt, kappa, dmg, sep, s
     for i in range(gap.shape[0]):
         r = _law(gap[i, 0], gap[i, 1], gap[i, 2] if three else 0.0,
                  kappa[i], dmg[i], sep[i], slip[i, 0], slip[i, 1] if three else 0.0,
-                 coh, contact, friction, damage, rdt, False)
+                 coh, contact, friction, damage, rdt, False, three)
         F[i, 0] = r[0]
         F[i, 1] = r[1]
         T[i, 0, 0] = r[3]
