@@ -30,7 +30,7 @@ from dataclasses import dataclass, field, fields
 
 import numpy as np
 
-from ._atomic import atomic_write_text
+from .atomic import atomic_write_text
 
 from .law import InterfaceLaw, InterfaceState
 

@@ -116,13 +116,14 @@ def test_no_private_name_imported_across_modules():
     bad = []
     for m, f in mods.items():
         for dep, names in _imports(m, f, mods):
-            if dep.split(".")[0] != m.split(".")[0]:
+            if dep.split(".")[0] != m.split(".")[0]:          # another package:
+                if any(p.startswith("_") for p in dep.split(".")[1:]) or any(
+                        n.startswith("_") and not n.startswith("__") for n in names):
+                    bad.append((m, dep, "private name of another package"))
                 continue
-            for n in names:
-                if n.startswith("_") and not n.startswith("__"):
-                    bad.append((m, dep, n))
-            if dep.split(".")[-1].startswith("_") and m.split(".")[0] != dep.split(".")[0]:
-                bad.append((m, dep, "<private module>"))
+            if dep.rsplit(".", 1)[0] != m.rsplit(".", 1)[0] and any(
+                    n.startswith("_") and not n.startswith("__") for n in names):
+                bad.append((m, dep, [n for n in names if n.startswith("_")]))
     assert not bad, bad
 
 

@@ -17,7 +17,7 @@ from importlib import metadata
 
 import numpy as np
 
-from interfacelaw._atomic import atomic_write_bytes, atomic_write_text
+from interfacelaw.atomic import atomic_write_bytes, atomic_write_text
 
 __all__ = ["atomic_write_bytes", "atomic_write_text", "atomic_write_json", "atomic_savez",
            "environment_info", "git_revision", "write_timeseries_csv", "write_damage_csv",
