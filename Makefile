@@ -23,8 +23,10 @@ run: $(STAMP)
 	$(VPY) -m ngs_driver run-paper koyna --out results
 	$(VPY) -m ngs_driver run-paper koyna --set ground_motion.scale=0.2 --out results/scale_0.2
 
+# both cores: the suite is ~9 CPU-minutes, most of it numba compiling the law's kernels on a
+# fresh clone; one worker per core, each test file on one worker (its fixtures built once)
 test: $(STAMP)
-	$(VPY) -m pytest -q --benchmark-disable tests
+	$(VPY) -m pytest -q --benchmark-disable -n 2 --dist loadfile tests
 
 bench: $(STAMP)
 	$(VPY) -m pip install --quiet -e ".[bench]"
