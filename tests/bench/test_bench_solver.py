@@ -86,8 +86,9 @@ def test_bench_full_step(benchmark, request, h):
 
 @pytest.mark.parametrize("ng", [2, 8])
 def test_bench_condensed_points(benchmark, request, ng):
-    """Per-step time against interface points at 12.5k DOFs: 128 points (dense LU path) and
-    512 points (GMRES preconditioned by a reused LU)."""
+    """Per-step time against interface points at 12.5k DOFs: 128 and 512 points (2 and 8 Gauss
+    points per segment: the Newton system is r x r, r = the relative interface DOFs, for both;
+    issue #15)."""
     if not _enabled(request):
         pytest.skip("large mesh only with make bench")
     m = _model(0.0625, ng)
