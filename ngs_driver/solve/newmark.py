@@ -156,12 +156,14 @@ class NewmarkSolver:
     max_cache : number of step sizes whose factorisation/S columns are kept
     few_max : up to this many active points u_lin is formed whole and u recovered from cached
               columns A^-1 B_p^T (one solve per step, as a linear step); more: split solve
+    sparse_jacobian : form G^T Dw G sparse before multiplying by Y (None: when 2 npts >= 4 r,
+              i.e. many Gauss points per interface node)
     """
 
     def __init__(self, K, M, C, B, w, law, *, dt, beta=None, gamma=None, alpha_hht=0.0,
                  tol_residual=1e-8, tol_energy=1e-16, max_iter=25, min_dt=None,
                  method="condensed", line_search=True, max_cache=6, active_tol=1e-12,
-                 few_max=16):
+                 few_max=16, sparse_jacobian=None):
         if method not in ("condensed", "full"):
             raise ValueError(f"NewmarkSolver method = {method!r} is not allowed; allowed: "
                              "'condensed', 'full'")
@@ -191,6 +193,7 @@ class NewmarkSolver:
         self.line_search = bool(line_search)
         self.max_cache = int(max_cache)
         self.few_max = int(few_max)
+        self.sparse_jacobian = sparse_jacobian
         self.active_tol = float(active_tol)
         self.stats = dict(jacobian_factorisations=0)
         self.law = law
@@ -538,12 +541,20 @@ class NewmarkSolver:
         cw = c * self.w
         d00, d01 = E[:, 0, 0] * cw, E[:, 0, 1] * cw
         d10, d11 = E[:, 1, 0] * cw, E[:, 1, 1] * cw
-        # (G^T Dw G) Y = G^T (Dw (G Y)): the point blocks of Dw on the rows of G Y
         GY = e.GY
-        DGY = np.empty_like(GY)
-        DGY[0::2] = d00[:, None] * GY[0::2] + d01[:, None] * GY[1::2]
-        DGY[1::2] = d10[:, None] * GY[0::2] + d11[:, None] * GY[1::2]
-        K = np.asarray(self._GT @ DGY)
+        n2, r = GY.shape
+        if self.sparse_jacobian or (self.sparse_jacobian is None and n2 >= 4 * r):
+            # many points per relative DOF: G^T Dw G sparse (O(npts)), then times Y
+            n = self.npts
+            Db = sp.bsr_matrix((np.stack([np.stack([d00, d01], 1), np.stack([d10, d11], 1)],
+                                         1), np.arange(n), np.arange(n + 1)), shape=(n2, n2))
+            K = np.asarray((self._GT @ (Db @ self._G)) @ e.Y)
+        else:
+            # (G^T Dw G) Y = G^T (Dw (G Y)): the point blocks of Dw on the rows of G Y
+            DGY = np.empty_like(GY)
+            DGY[0::2] = d00[:, None] * GY[0::2] + d01[:, None] * GY[1::2]
+            DGY[1::2] = d10[:, None] * GY[0::2] + d11[:, None] * GY[1::2]
+            K = np.asarray(self._GT @ DGY)
         K[np.diag_indices_from(K)] += 1.0
         lu, piv, info = sla.lapack.dgetrf(K, overwrite_a=True)
         if info != 0:
