@@ -1,6 +1,7 @@
 """Shared test helpers: the one way tests load a verification study (its ``main(fast, outdir)``
 in the fast version)."""
 import importlib
+import os
 import pathlib
 import sys
 
@@ -18,3 +19,13 @@ def study():
     def load(name):
         return importlib.import_module(f"verification.{name}")
     return load
+
+
+@pytest.fixture
+def cli_env():
+    """The environment for a subprocess running the command from this checkout."""
+    env = dict(os.environ)
+    env.setdefault("NUMBA_CACHE_DIR", str(ROOT / ".numba_cache"))
+    env.setdefault("MPLBACKEND", "Agg")
+    env["PYTHONPATH"] = str(ROOT) + os.pathsep + env.get("PYTHONPATH", "")
+    return env

@@ -1,6 +1,5 @@
 """Command line (ngs_driver.cli): dry run without NGSolve, bad input, modal, run, run-paper."""
 import json
-import os
 import subprocess
 import sys
 from pathlib import Path
@@ -12,22 +11,14 @@ from ngs_driver.cli import main
 ROOT = Path(__file__).resolve().parent.parent
 
 
-def _env():
-    env = dict(os.environ)
-    env.setdefault("NUMBA_CACHE_DIR", str(ROOT / ".numba_cache"))
-    env.setdefault("MPLBACKEND", "Agg")
-    env["PYTHONPATH"] = str(ROOT) + os.pathsep + env.get("PYTHONPATH", "")
-    return env
-
-
-def test_dry_run_does_not_import_ngsolve(tmp_path):
+def test_dry_run_does_not_import_ngsolve(tmp_path, cli_env):
     code = ("import sys, json\n"
             "from ngs_driver.cli import main\n"
             f"rc = main(['run', 'koyna', '--dry-run', '--out', {str(tmp_path / 'x')!r}])\n"
             "print('RC', rc, 'NGSOLVE', 'ngsolve' in sys.modules, 'NETGEN', "
             "'netgen' in sys.modules)\n")
     r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
-                       env=_env(), cwd=ROOT, timeout=120)
+                       env=cli_env, cwd=ROOT, timeout=120)
     assert r.returncode == 0, r.stderr
     assert "RC 0 NGSOLVE False NETGEN False" in r.stdout
     d = json.loads(r.stdout[:r.stdout.rindex("}") + 1])
@@ -37,11 +28,11 @@ def test_dry_run_does_not_import_ngsolve(tmp_path):
     assert not (tmp_path / "x").exists()
 
 
-def test_bad_set_key_exit_2(tmp_path):
+def test_bad_set_key_exit_2(tmp_path, cli_env):
     out = tmp_path / "res"
     r = subprocess.run([sys.executable, "-m", "ngs_driver", "run", "koyna_smoke", "--set",
                         "interface.alfa=1", "--out", str(out)], capture_output=True, text=True,
-                       env=_env(), cwd=ROOT, timeout=120)
+                       env=cli_env, cwd=ROOT, timeout=120)
     assert r.returncode == 2
     assert "interface.alfa" in r.stderr and "alpha" in r.stderr
     assert not out.exists()

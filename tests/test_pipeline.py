@@ -3,7 +3,6 @@ meshing, and the package is a pipeline (no import cycle, no private name importe
 modules)."""
 import ast
 import json
-import os
 import subprocess
 import sys
 from pathlib import Path
@@ -14,14 +13,6 @@ from ngs_driver.cli import main
 
 ROOT = Path(__file__).resolve().parent.parent
 PACKAGES = ("ngs_driver", "interfacelaw")
-
-
-def _env():
-    env = dict(os.environ)
-    env.setdefault("NUMBA_CACHE_DIR", str(ROOT / ".numba_cache"))
-    env.setdefault("MPLBACKEND", "Agg")
-    env["PYTHONPATH"] = str(ROOT) + os.pathsep + env.get("PYTHONPATH", "")
-    return env
 
 
 # ------------------------------------------------------------------------------ architecture
@@ -172,7 +163,7 @@ def test_dry_run_reports_section_and_joints(tmp_path, capsys):
 
 # ------------------------------------------------------------------------------ runs
 @pytest.mark.slow
-def test_any_profile_runs(tmp_path):
+def test_any_profile_runs(tmp_path, cli_env):
     """Acceptance: a scene with its own profile and reservoir level runs and writes
     summary.json; the crest is read at the upstream crest corner of that profile."""
     scene = tmp_path / "tri.toml"
@@ -181,7 +172,7 @@ def test_any_profile_runs(tmp_path):
     out = tmp_path / "out"
     r = subprocess.run([sys.executable, "-m", "ngs_driver", "run", str(scene), "--set",
                         "time.duration=0.05", "--out", str(out), "--quiet"],
-                       capture_output=True, text=True, env=_env(), cwd=ROOT, timeout=600)
+                       capture_output=True, text=True, env=cli_env, cwd=ROOT, timeout=600)
     assert r.returncode == 0, r.stderr
     s = json.loads((out / "summary.json").read_text())
     assert s["crest_point"] == [0.0, 60.0]
@@ -190,7 +181,7 @@ def test_any_profile_runs(tmp_path):
 
 
 @pytest.mark.slow
-def test_lift_joint_scene_runs(tmp_path):
+def test_lift_joint_scene_runs(tmp_path, cli_env):
     """Acceptance: a scene file holding only [[joints]] neck at 66.5 m writes summary.json with
     joints.neck and joints.base."""
     scene = tmp_path / "neck.toml"
@@ -198,7 +189,7 @@ def test_lift_joint_scene_runs(tmp_path):
     out = tmp_path / "out"
     r = subprocess.run([sys.executable, "-m", "ngs_driver", "run", str(scene), "--set",
                         "time.duration=0.05", "--out", str(out), "--quiet"],
-                       capture_output=True, text=True, env=_env(), cwd=ROOT, timeout=600)
+                       capture_output=True, text=True, env=cli_env, cwd=ROOT, timeout=600)
     assert r.returncode == 0, r.stderr
     s = json.loads((out / "summary.json").read_text())
     assert set(s["joints"]) == {"base", "neck"}
