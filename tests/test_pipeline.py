@@ -162,6 +162,16 @@ def test_dry_run_reports_section_and_joints(tmp_path, capsys):
 
 
 # ------------------------------------------------------------------------------ runs
+def _run_for_005_s(scene, tmp_path, env):
+    """`dam-seismic run SCENE --set time.duration=0.05` as a user types it; (out, summary)."""
+    out = tmp_path / "out"
+    r = subprocess.run([sys.executable, "-m", "ngs_driver", "run", str(scene), "--set",
+                        "time.duration=0.05", "--out", str(out), "--quiet"],
+                       capture_output=True, text=True, env=env, cwd=ROOT, timeout=600)
+    assert r.returncode == 0, r.stderr
+    return out, json.loads((out / "summary.json").read_text())
+
+
 @pytest.mark.slow
 def test_any_profile_runs(tmp_path, cli_env):
     """Acceptance: a scene with its own profile and reservoir level runs and writes
@@ -169,12 +179,7 @@ def test_any_profile_runs(tmp_path, cli_env):
     scene = tmp_path / "tri.toml"
     scene.write_text("[geometry]\nprofile = [[0,0],[60,0],[10,60],[0,60]]\n"
                      "[loads]\nreservoir_level = 50\n")
-    out = tmp_path / "out"
-    r = subprocess.run([sys.executable, "-m", "ngs_driver", "run", str(scene), "--set",
-                        "time.duration=0.05", "--out", str(out), "--quiet"],
-                       capture_output=True, text=True, env=cli_env, cwd=ROOT, timeout=600)
-    assert r.returncode == 0, r.stderr
-    s = json.loads((out / "summary.json").read_text())
+    out, s = _run_for_005_s(scene, tmp_path, cli_env)
     assert s["crest_point"] == [0.0, 60.0]
     assert s["joints"]["base"]["length"] == pytest.approx(60.0, rel=1e-12)
     assert s["n_steps"] == 25 and s["scene"]["geometry"]["profile"][2] == [10.0, 60.0]
@@ -186,12 +191,7 @@ def test_lift_joint_scene_runs(tmp_path, cli_env):
     joints.neck and joints.base."""
     scene = tmp_path / "neck.toml"
     scene.write_text('[[joints]]\nname = "neck"\nelevation = 66.5\n')
-    out = tmp_path / "out"
-    r = subprocess.run([sys.executable, "-m", "ngs_driver", "run", str(scene), "--set",
-                        "time.duration=0.05", "--out", str(out), "--quiet"],
-                       capture_output=True, text=True, env=cli_env, cwd=ROOT, timeout=600)
-    assert r.returncode == 0, r.stderr
-    s = json.loads((out / "summary.json").read_text())
+    out, s = _run_for_005_s(scene, tmp_path, cli_env)
     assert set(s["joints"]) == {"base", "neck"}
     assert s["joints"]["neck"]["elevation"] == pytest.approx(66.5)
     assert s["joints"]["neck"]["length"] == pytest.approx(19.25, rel=1e-9)
