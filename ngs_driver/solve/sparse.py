@@ -16,23 +16,14 @@ __all__ = ["SparseFactor"]
 
 @njit(cache=True)
 def _lu_solve(Lp, Li, Lx, Up, Ui, Ux, perm_r, perm_c, b, x, y):
-    """Solve A x = b for a (n, k) C-contiguous b: y = Pr b; L z = y; U w = z; x = Pc w."""
+    """Solve A x = b for a (n, k) C-contiguous b: y = Pr b; L z = y; U w = z; x = Pc w
+    (general LU: U stored by columns, diagonal last)."""
     n, k = b.shape
     for i in range(n):
         pi = perm_r[i]
         for r in range(k):
             y[pi, r] = b[i, r]
-    # L: CSC, unit diagonal stored first in each column (sorted indices)
-    for j in range(n):
-        d = Lx[Lp[j]]
-        for r in range(k):
-            y[j, r] /= d
-        for q in range(Lp[j] + 1, Lp[j + 1]):
-            i = Li[q]
-            lv = Lx[q]
-            for r in range(k):
-                y[i, r] -= lv * y[j, r]
-    # U: CSC, diagonal stored last in each column (sorted indices)
+    _fwd_mat(Lp, Li, Lx, y)
     for j in range(n - 1, -1, -1):
         d = Ux[Up[j + 1] - 1]
         for r in range(k):
@@ -49,23 +40,43 @@ def _lu_solve(Lp, Li, Lx, Up, Ui, Ux, perm_r, perm_c, b, x, y):
 
 
 @njit(cache=True)
-def _lu_solve1(Lp, Li, Lx, Up, Ui, Ux, perm_r, perm_c, b, x, y):
-    """Single right-hand side version of _lu_solve."""
-    n = b.shape[0]
-    for i in range(n):
-        y[perm_r[i]] = b[i]
+def _fwd_mat(Lp, Li, Lx, y):
+    """y <- L^-1 y in place (y (n, k)); L CSC, diagonal first in each column."""
+    n, k = y.shape
     for j in range(n):
-        yj = y[j] / Lx[Lp[j]]
-        y[j] = yj
+        d = Lx[Lp[j]]
+        for r in range(k):
+            y[j, r] /= d
         for q in range(Lp[j] + 1, Lp[j + 1]):
-            y[Li[q]] -= Lx[q] * yj
-    for j in range(n - 1, -1, -1):
-        yj = y[j] / Ux[Up[j + 1] - 1]
-        y[j] = yj
-        for q in range(Up[j], Up[j + 1] - 1):
-            y[Ui[q]] -= Ux[q] * yj
+            i = Li[q]
+            lv = Lx[q]
+            for r in range(k):
+                y[i, r] -= lv * y[j, r]
+
+
+@njit(cache=True)
+def _ldl_solve(Lp, Li, Lx, D, perm, b, x, y):
+    """Solve A x = b, P A P^T = L D L^T (symmetric), b (n, k): y = P b; L z = y;
+    L^T w = D^-1 z (gathers along the columns of L); x = P^T w."""
+    n, k = b.shape
     for i in range(n):
-        x[i] = y[perm_c[i]]
+        pi = perm[i]
+        for r in range(k):
+            y[pi, r] = b[i, r]
+    _fwd_mat(Lp, Li, Lx, y)
+    for j in range(n - 1, -1, -1):
+        d = D[j]
+        for r in range(k):
+            y[j, r] /= d
+        for q in range(Lp[j] + 1, Lp[j + 1]):
+            i = Li[q]
+            lv = Lx[q]
+            for r in range(k):
+                y[j, r] -= lv * y[i, r]
+    for i in range(n):
+        pc = perm[i]
+        for r in range(k):
+            x[i, r] = y[pc, r]
 
 
 @njit(cache=True)
@@ -83,7 +94,7 @@ def _fwd1(Lp, Li, Lx, perm_r, b, y):
 
 @njit(cache=True)
 def _bwd1(Up, Ui, Ux, perm_c, z, x):
-    """Backward half: x = Pc U^-1 z (z is overwritten)."""
+    """Backward half, general LU: x = Pc U^-1 z (z is overwritten)."""
     n = z.shape[0]
     for j in range(n - 1, -1, -1):
         zj = z[j] / Ux[Up[j + 1] - 1]
@@ -92,6 +103,20 @@ def _bwd1(Up, Ui, Ux, perm_c, z, x):
             z[Ui[q]] -= Ux[q] * zj
     for i in range(n):
         x[i] = z[perm_c[i]]
+
+
+@njit(cache=True)
+def _bwd1_ldl(Lp, Li, Lx, D, perm, z, x):
+    """Backward half, symmetric: x = P^T L^-T D^-1 z, by dot products down the columns of L
+    (z is overwritten)."""
+    n = z.shape[0]
+    for j in range(n - 1, -1, -1):
+        acc = z[j] / D[j]
+        for q in range(Lp[j] + 1, Lp[j + 1]):
+            acc -= Lx[q] * z[Li[q]]
+        z[j] = acc
+    for i in range(n):
+        x[i] = z[perm[i]]
 
 
 @njit(cache=True)
@@ -117,22 +142,34 @@ def _fwd_part(Lp, Li, Lx, cols, rows_in, b, y):
 
 
 @njit(cache=True)
-def _bwd_part(Urp, Urj, Urx, rows, z, w):
+def _bwd_part(Urp, Urj, Urx, D, rows, z, w):
     """U^-1 z on the positions ``rows`` only (descending; closed under the row structure of U,
-    so every entry they need is among them): U (CSR, diagonal first in each row)."""
+    so every entry they need is among them). U by rows with its diagonal first in each row
+    (D None) or, symmetric, U = D L^T: row j of U is D[j] times column j of L, passed as
+    (Lp, Li, Lx) with the diagonal D."""
     k = z.shape[1]
     for a in range(rows.shape[0]):
         j = rows[a]
         for r in range(k):
             w[j, r] = z[j, r]
-        for q in range(Urp[j] + 1, Urp[j + 1]):
-            i = Urj[q]
-            uv = Urx[q]
+        if D is None:
+            for q in range(Urp[j] + 1, Urp[j + 1]):
+                i = Urj[q]
+                uv = Urx[q]
+                for r in range(k):
+                    w[j, r] -= uv * w[i, r]
+            d = Urx[Urp[j]]
             for r in range(k):
-                w[j, r] -= uv * w[i, r]
-        d = Urx[Urp[j]]
-        for r in range(k):
-            w[j, r] /= d
+                w[j, r] /= d
+        else:
+            d = D[j]
+            for r in range(k):
+                w[j, r] /= d
+            for q in range(Urp[j] + 1, Urp[j + 1]):
+                i = Urj[q]
+                lv = Urx[q]
+                for r in range(k):
+                    w[j, r] -= lv * w[i, r]
 
 
 @njit(cache=True)
@@ -149,14 +186,21 @@ def _fwd_part1(Lp, Li, Lx, cols, rows_in, b, y):
 
 
 @njit(cache=True)
-def _bwd_part1(Urp, Urj, Urx, rows, z, w):
+def _bwd_part1(Urp, Urj, Urx, D, rows, z, w):
     """_bwd_part for one right-hand side (z, w (n,))."""
     for a in range(rows.shape[0]):
         j = rows[a]
-        acc = z[j]
-        for q in range(Urp[j] + 1, Urp[j + 1]):
-            acc -= Urx[q] * w[Urj[q]]
-        w[j] = acc / Urx[Urp[j]]
+        if D is None:
+            acc = z[j]
+            for q in range(Urp[j] + 1, Urp[j + 1]):
+                acc -= Urx[q] * w[Urj[q]]
+            w[j] = acc / Urx[Urp[j]]
+        else:
+            acc = z[j] / D[j]
+            for q in range(Urp[j] + 1, Urp[j + 1]):
+                acc -= Urx[q] * w[Urj[q]]
+            w[j] = acc
+
 
 @njit(cache=True)
 def _closure(p, idx, start):
@@ -186,8 +230,13 @@ def _closure(p, idx, start):
 class SparseFactor:
     """Direct factorisation of a sparse (ndof x ndof) matrix.
 
-    symmetric=True: SuperLU with MMD ordering on A^T + A, symmetric mode, no pivoting
-    (the effective matrices of the condensed method are SPD); otherwise partial pivoting.
+    symmetric=True: SuperLU with MMD ordering on A^T + A, symmetric mode, no pivoting (the
+    effective matrices of the condensed method are SPD): then perm_r = perm_c = P and
+    U = D L^T to round-off, so only L and D are kept (P A P^T = L D L^T) and the backward half
+    reads L again (dot products down its columns): half the memory of L and U, and the two
+    halves of a solve stream the same 6.6 MB on the default Koyna mesh (issue #15; measured in
+    BENCHMARKS.md). If SuperLU pivoted anyway, or U is not D L^T to 1e-10, the general LU is
+    kept. symmetric=False: partial pivoting, L and U.
     ``solve(b)`` accepts (n,) or (n, k).  ``fast=False`` uses SuperLU's own solve.
     """
 
@@ -201,36 +250,50 @@ class SparseFactor:
         self.shape = A.shape
         self.fast = fast
         self._part = None
+        self._D = None
+        self._U = None
         if fast:
             L = lu.L.tocsc()
             U = lu.U.tocsc()
             L.sort_indices()
             U.sort_indices()
-            # int32 indices (n, nnz < 2^31 here): a solve streams L and U, a quarter less
+            # int32 indices (n, nnz < 2^31 here): a solve streams L (and U), a quarter less
             self._L = (L.indptr.astype(np.int32), L.indices.astype(np.int32), L.data)
-            self._U = (U.indptr.astype(np.int32), U.indices.astype(np.int32), U.data)
             self._pr = lu.perm_r.astype(np.int64)
             self._pc = lu.perm_c.astype(np.int64)
+            if symmetric and np.array_equal(self._pr, self._pc) and _is_dlt(L, U):
+                self._D = U.diagonal().copy()
+            else:
+                self._U = (U.indptr.astype(np.int32), U.indices.astype(np.int32), U.data)
             self._lu = None                  # SuperLU's own copy of the factors is not kept
         else:
             self._lu = lu
 
     @property
+    def ldl(self) -> bool:
+        """True when only L and D are kept (P A P^T = L D L^T)."""
+        return self._D is not None
+
+    @property
     def nnz(self) -> int:
-        return int(self._L[2].size + self._U[2].size) if self.fast else -1
+        """Stored factor entries (L and U, or L and D)."""
+        if not self.fast:
+            return -1
+        return int(self._L[2].size + (self._D.size if self.ldl else self._U[2].size))
 
     def solve(self, b):
         if not self.fast:
             return self._lu.solve(b)
         b = np.asarray(b, dtype=np.float64)
         if b.ndim == 1:
-            x = np.empty_like(b)
-            _lu_solve1(*self._L, *self._U, self._pr, self._pc, b, x, np.empty_like(b))
-            return x
+            return self.backward(self.forward(b))
         b2 = np.ascontiguousarray(b.reshape(b.shape[0], -1))
         x = np.empty_like(b2)
         y = np.empty_like(b2)
-        _lu_solve(*self._L, *self._U, self._pr, self._pc, b2, x, y)
+        if self.ldl:
+            _ldl_solve(*self._L, self._D, self._pr, b2, x, y)
+        else:
+            _lu_solve(*self._L, *self._U, self._pr, self._pc, b2, x, y)
         return x
 
     # ---- split and partial solves (condensed interface solver, issue #15) ---------------
@@ -244,12 +307,15 @@ class SparseFactor:
             raise ValueError("SparseFactor.restrict needs fast=True")
         dofs = np.asarray(dofs, np.int64)
         Lp, Li, _ = self._L
-        Up, Ui, Ux = self._U
         rin = self._pr[dofs]
         fcols = np.flatnonzero(_closure(Lp, Li, rin))
-        Ur = sp.csc_matrix((Ux, Ui, Up), shape=self.shape).tocsr()
-        Ur.sort_indices()
-        Ur = (Ur.indptr.astype(np.int32), Ur.indices.astype(np.int32), Ur.data)
+        if self.ldl:
+            Ur = self._L                      # row j of U = D_j L[:, j]^T: L's own columns
+        else:
+            Up, Ui, Ux = self._U
+            Ur = sp.csc_matrix((Ux, Ui, Up), shape=self.shape).tocsr()
+            Ur.sort_indices()
+            Ur = (Ur.indptr.astype(np.int32), Ur.indices.astype(np.int32), Ur.data)
         qout = self._pc[dofs]
         brows = np.flatnonzero(_closure(Ur[0], Ur[1], qout))[::-1].copy()
         self._part = dict(dofs=dofs, rin=rin, fcols=fcols, Ur=Ur, qout=qout, brows=brows)
@@ -261,7 +327,7 @@ class SparseFactor:
         Lp = self._L[0]
         Urp = pt["Ur"][0]
         f = float(np.sum(Lp[pt["fcols"] + 1] - Lp[pt["fcols"]])) / self._L[2].size
-        b = float(np.sum(Urp[pt["brows"] + 1] - Urp[pt["brows"]])) / self._U[2].size
+        b = float(np.sum(Urp[pt["brows"] + 1] - Urp[pt["brows"]])) / pt["Ur"][2].size
         return f, b
 
     def forward(self, b):
@@ -275,7 +341,10 @@ class SparseFactor:
         """x = Pc U^-1 z (the second half of ``solve``); z is not modified."""
         zz = np.array(z, dtype=np.float64)
         x = np.empty_like(zz)
-        _bwd1(*self._U, self._pc, zz, x)
+        if self.ldl:
+            _bwd1_ldl(*self._L, self._D, self._pc, zz, x)
+        else:
+            _bwd1(*self._U, self._pc, zz, x)
         return x
 
     def backward_at(self, z):
@@ -283,11 +352,11 @@ class SparseFactor:
         pt = self._part
         if z.ndim == 1:
             w = np.empty_like(z)
-            _bwd_part1(*pt["Ur"], pt["brows"], z, w)
+            _bwd_part1(*pt["Ur"], self._D, pt["brows"], z, w)
             return w[pt["qout"]]
         z2 = np.ascontiguousarray(z)
         w = np.empty_like(z2)
-        _bwd_part(*pt["Ur"], pt["brows"], z2, w)
+        _bwd_part(*pt["Ur"], self._D, pt["brows"], z2, w)
         return w[pt["qout"]]
 
     def forward_sparse(self, bd):
@@ -305,3 +374,15 @@ class SparseFactor:
     def solve_at(self, bd):
         """(A^-1 b)[dofs] for b zero outside ``dofs`` (b[dofs] = bd, (m,) or (m, k))."""
         return self.backward_at(self.forward_sparse(bd))
+
+
+def _is_dlt(L, U, rtol=1e-10) -> bool:
+    """U == D L^T to rtol of U's largest entry (same structure); L unit lower."""
+    if L.nnz != U.nnz:
+        return False
+    d = U.diagonal()
+    if not np.all(np.isfinite(d)) or np.any(d == 0.0):
+        return False
+    DLt = sp.csc_matrix(sp.diags(d) @ L.T.tocsc())
+    diff = abs(DLt - U)
+    return bool(diff.max() <= rtol * abs(U).max()) if diff.nnz else True
