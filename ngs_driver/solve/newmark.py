@@ -42,6 +42,7 @@ import numpy as np
 import scipy.linalg as sla
 import scipy.sparse as sp
 import scipy.sparse.linalg as spl
+from numba import njit
 
 from .joint_laws import initial_stiffness, reference_gap
 from .sparse import SparseFactor
@@ -55,6 +56,62 @@ def _getrs(lu, b):
     if info != 0:
         raise np.linalg.LinAlgError(f"dgetrs info {info}")
     return x
+
+
+# iterative refinement of K^-1 v with an earlier LU (``NewmarkSolver._jac_solve``): stop at a
+# residual of this relative size (a direct LU solve of the 224 x 224 Koyna K leaves ~1e-15),
+# give up after this many sweeps or when a sweep reduces the residual by less than 4x
+_REFINE_TOL = 1e-13
+_REFINE_MAX = 8
+
+
+def _refine(lu, K, v):
+    """x with |K x - v| <= _REFINE_TOL |v| by iterative refinement on the LU of a nearby
+    matrix, or None when it does not contract fast enough (then K is factorised)."""
+    vn = np.linalg.norm(v)
+    if not np.isfinite(vn):
+        return None
+    if vn == 0.0:
+        return np.zeros_like(v)
+    x = _getrs(lu, v)
+    rn_prev = np.inf
+    for _ in range(_REFINE_MAX):
+        res = v - K @ x
+        rn = np.linalg.norm(res)
+        if not np.isfinite(rn) or rn > 0.25 * rn_prev:
+            return None
+        if rn <= _REFINE_TOL * vn:
+            return x
+        x = x + _getrs(lu, res)
+        rn_prev = rn
+    return None
+
+
+def _block_mul(Dw, b):
+    """(npts, 2, 2) blocks times the (2 npts,) vector b."""
+    b2 = b.reshape(-1, 2)
+    y = np.empty_like(b)
+    y[0::2] = Dw[:, 0, 0] * b2[:, 0] + Dw[:, 0, 1] * b2[:, 1]
+    y[1::2] = Dw[:, 1, 0] * b2[:, 0] + Dw[:, 1, 1] * b2[:, 1]
+    return y
+
+
+@njit(cache=True)
+def _jac_matrix(GTp, GTi, GTx, Dw, GY, K):
+    """K = I + G^T Dw (G Y): G^T (r x 2 npts, CSR), Dw (npts, 2, 2) blocks, GY (2 npts, r)."""
+    r = K.shape[0]
+    for i in range(r):
+        for j in range(r):
+            K[i, j] = 0.0
+        K[i, i] = 1.0
+        for q in range(GTp[i], GTp[i + 1]):
+            p = GTi[q]
+            pt = p // 2
+            a = p - 2 * pt
+            c0 = GTx[q] * Dw[pt, a, 0]
+            c1 = GTx[q] * Dw[pt, a, 1]
+            for j in range(r):
+                K[i, j] += c0 * GY[2 * pt, j] + c1 * GY[2 * pt + 1, j]
 
 
 # duration given to rate-dependent laws for the static solve: the dead load and the reservoir
@@ -131,6 +188,7 @@ class _Cache:
     Y: np.ndarray | None = None          # (r, r) Delta (A^-1)_II Delta^T, S = G Y G^T
     GY: np.ndarray | None = None         # (2 npts, r) G Y
     Z: dict = field(default_factory=dict)  # point -> (ndof, 2) A^-1 B_p^T (few active points)
+    jac_lu: tuple | None = None          # LU of the last r x r Jacobian K factorised (reuse)
     base: bool = True                    # the nominal step's entry (never evicted)
 
 
@@ -158,12 +216,15 @@ class NewmarkSolver:
               columns A^-1 B_p^T (one solve per step, as a linear step); more: split solve
     sparse_jacobian : form G^T Dw G sparse before multiplying by Y (None: when 2 npts >= 4 r,
               i.e. many Gauss points per interface node)
+    jacobian_reuse : solve the r x r Newton system by iterative refinement on the LU of the
+              last one factorised (same step size) while that contracts fast; else factorise
+              (the direction is the same to round-off: relative residual 1e-13)
     """
 
     def __init__(self, K, M, C, B, w, law, *, dt, beta=None, gamma=None, alpha_hht=0.0,
                  tol_residual=1e-8, tol_energy=1e-16, max_iter=25, min_dt=None,
                  method="condensed", line_search=True, max_cache=6, active_tol=1e-12,
-                 few_max=16, sparse_jacobian=None):
+                 few_max=16, sparse_jacobian=None, jacobian_reuse=True):
         if method not in ("condensed", "full"):
             raise ValueError(f"NewmarkSolver method = {method!r} is not allowed; allowed: "
                              "'condensed', 'full'")
@@ -195,7 +256,8 @@ class NewmarkSolver:
         self.few_max = int(few_max)
         self.sparse_jacobian = sparse_jacobian
         self.active_tol = float(active_tol)
-        self.stats = dict(jacobian_factorisations=0)
+        self.jacobian_reuse = bool(jacobian_reuse)
+        self.stats = dict(jacobian_factorisations=0, jacobian_solves=0, jacobian_reuses=0)
         self.law = law
         self._set_k0(law)
         self._wd = np.repeat(self.w, 2)                     # W on the (2 npts) gap vector
@@ -519,11 +581,16 @@ class NewmarkSolver:
         relative displacements of the interface nodes, r = 224 on the default Koyna mesh,
         whatever the number of interface points):
 
-            J^-1 b = b - G Y K^-1 G^T Dw b,      K = I_r + (G^T Dw G) Y   (r x r, dense LU),
+            J^-1 b = b - G Y K^-1 G^T Dw b,      K = I_r + (G^T Dw G) Y   (r x r, dense),
 
         (push-through identity, exact). G^T Dw G is sparse; nothing of size (2 npts)^2.
+        K^-1 v: with ``jacobian_reuse`` the LU of the last K factorised for this step size
+        (an earlier iteration or step) is tried first, by iterative refinement to the relative
+        residual ``_REFINE_TOL`` (round-off of a direct solve); if it does not contract fast
+        (ratio > 1/4 per sweep, or more than ``_REFINE_MAX`` sweeps) K is factorised afresh.
         Few active points (2 m < r, the gap DOFs ``ad``): the same identity on their columns,
         J^-1 b = b - S_:a (I + Dw_a S_aa)^-1 Dw_a b_a with S_:a = G Y G_a^T (2m x 2m system)."""
+        self.stats["jacobian_solves"] += 1
         if ad.size < e.Y.shape[0]:
             Sa = e.GY @ self._GT[:, ad].toarray()                  # (2 npts, 2m)
             m = ad.size // 2
@@ -538,33 +605,34 @@ class NewmarkSolver:
             if not np.all(np.isfinite(x)):
                 raise np.linalg.LinAlgError("interface Jacobian: non-finite solution")
             return x
-        cw = c * self.w
-        d00, d01 = E[:, 0, 0] * cw, E[:, 0, 1] * cw
-        d10, d11 = E[:, 1, 0] * cw, E[:, 1, 1] * cw
+        Dw = E * (c * self.w)[:, None, None]                       # (npts, 2, 2)
         GY = e.GY
         n2, r = GY.shape
+        GT = self._GT
         if self.sparse_jacobian or (self.sparse_jacobian is None and n2 >= 4 * r):
             # many points per relative DOF: G^T Dw G sparse (O(npts)), then times Y
             n = self.npts
-            Db = sp.bsr_matrix((np.stack([np.stack([d00, d01], 1), np.stack([d10, d11], 1)],
-                                         1), np.arange(n), np.arange(n + 1)), shape=(n2, n2))
-            K = np.asarray((self._GT @ (Db @ self._G)) @ e.Y)
+            Db = sp.bsr_matrix((Dw, np.arange(n), np.arange(n + 1)), shape=(n2, n2))
+            K = np.asarray((GT @ (Db @ self._G)) @ e.Y)
+            K[np.diag_indices_from(K)] += 1.0
         else:
-            # (G^T Dw G) Y = G^T (Dw (G Y)): the point blocks of Dw on the rows of G Y
-            DGY = np.empty_like(GY)
-            DGY[0::2] = d00[:, None] * GY[0::2] + d01[:, None] * GY[1::2]
-            DGY[1::2] = d10[:, None] * GY[0::2] + d11[:, None] * GY[1::2]
-            K = np.asarray(self._GT @ DGY)
-        K[np.diag_indices_from(K)] += 1.0
-        lu, piv, info = sla.lapack.dgetrf(K, overwrite_a=True)
-        if info != 0:
-            raise np.linalg.LinAlgError(f"interface Jacobian singular (dgetrf info {info})")
-        self.stats["jacobian_factorisations"] += 1
-        y = np.empty_like(b)
-        b0, b1 = b[0::2], b[1::2]
-        y[0::2] = d00 * b0 + d01 * b1
-        y[1::2] = d10 * b0 + d11 * b1
-        x = b - GY @ _getrs((lu, piv), self._GT @ y)
+            # (G^T Dw G) Y = G^T (Dw (G Y)) row by row of G^T (numba, one pass over GY)
+            K = np.empty((r, r))
+            _jac_matrix(GT.indptr, GT.indices, GT.data, Dw, GY, K)
+        v = GT @ _block_mul(Dw, b)
+        z = None
+        if self.jacobian_reuse and e.jac_lu is not None:
+            z = _refine(e.jac_lu, K, v)
+            if z is not None:
+                self.stats["jacobian_reuses"] += 1
+        if z is None:
+            lu, piv, info = sla.lapack.dgetrf(K, overwrite_a=True)
+            if info != 0:
+                raise np.linalg.LinAlgError(f"interface Jacobian singular (dgetrf info {info})")
+            self.stats["jacobian_factorisations"] += 1
+            e.jac_lu = (lu, piv)
+            z = _getrs(e.jac_lu, v)
+        x = b - GY @ z
         if not np.all(np.isfinite(x)):
             raise np.linalg.LinAlgError("interface Jacobian: non-finite solution")
         return x
