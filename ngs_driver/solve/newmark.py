@@ -65,9 +65,10 @@ _REFINE_TOL = 1e-13
 _REFINE_MAX = 8
 
 
-def _refine(lu, K, v):
-    """x with |K x - v| <= _REFINE_TOL |v| by iterative refinement on the LU of a nearby
-    matrix, or None when it does not contract fast enough (then K is factorised)."""
+def _refine(lu, Kmul, v):
+    """x with |K x - v| <= _REFINE_TOL |v| (``Kmul(x)`` = K x) by iterative refinement on the
+    LU of a nearby matrix, or None when it does not contract fast enough (then K is
+    factorised)."""
     vn = np.linalg.norm(v)
     if not np.isfinite(vn):
         return None
@@ -76,7 +77,7 @@ def _refine(lu, K, v):
     x = _getrs(lu, v)
     rn_prev = np.inf
     for _ in range(_REFINE_MAX):
-        res = v - K @ x
+        res = v - Kmul(x)
         rn = np.linalg.norm(res)
         if not np.isfinite(rn) or rn > 0.25 * rn_prev:
             return None
@@ -97,21 +98,41 @@ def _block_mul(Dw, b):
 
 
 @njit(cache=True)
-def _jac_matrix(GTp, GTi, GTx, Dw, GY, K):
-    """K = I + G^T Dw (G Y): G^T (r x 2 npts, CSR), Dw (npts, 2, 2) blocks, GY (2 npts, r)."""
-    r = K.shape[0]
-    for i in range(r):
-        for j in range(r):
-            K[i, j] = 0.0
-        K[i, i] = 1.0
-        for q in range(GTp[i], GTp[i + 1]):
-            p = GTi[q]
-            pt = p // 2
-            a = p - 2 * pt
-            c0 = GTx[q] * Dw[pt, a, 0]
-            c1 = GTx[q] * Dw[pt, a, 1]
-            for j in range(r):
-                K[i, j] += c0 * GY[2 * pt, j] + c1 * GY[2 * pt + 1, j]
+def _ptp_pairs(Gp, npts):
+    """Every (point, a, b, q1, q2) with q1 in row 2 point + a and q2 in row 2 point + b of G
+    (CSR row pointer Gp): the terms of G^T Dw G for block-diagonal Dw."""
+    cnt = 0
+    for pt in range(npts):
+        for a in range(2):
+            for b in range(2):
+                cnt += (Gp[2 * pt + a + 1] - Gp[2 * pt + a]) * (Gp[2 * pt + b + 1] - Gp[2 * pt + b])
+    PT = np.empty(cnt, np.int64)
+    A = np.empty(cnt, np.int64)
+    B = np.empty(cnt, np.int64)
+    Q1 = np.empty(cnt, np.int64)
+    Q2 = np.empty(cnt, np.int64)
+    k = 0
+    for pt in range(npts):
+        for a in range(2):
+            for b in range(2):
+                for q1 in range(Gp[2 * pt + a], Gp[2 * pt + a + 1]):
+                    for q2 in range(Gp[2 * pt + b], Gp[2 * pt + b + 1]):
+                        PT[k] = pt
+                        A[k] = a
+                        B[k] = b
+                        Q1[k] = q1
+                        Q2[k] = q2
+                        k += 1
+    return PT, A, B, Q1, Q2
+
+
+@njit(cache=True)
+def _ptp_values(PT, A, B, Q1, Q2, pos, Gx, Dw, out):
+    """out = values of G^T Dw G on its pattern (``_ptp_pairs`` and positions ``pos``)."""
+    for k in range(out.shape[0]):
+        out[k] = 0.0
+    for k in range(PT.shape[0]):
+        out[pos[k]] += Gx[Q1[k]] * Dw[PT[k], A[k], B[k]] * Gx[Q2[k]]
 
 
 # duration given to rate-dependent laws for the static solve: the dead load and the reservoir
@@ -186,7 +207,6 @@ class _Cache:
     """Per-step-size data of the condensed method."""
     factor: SparseFactor
     Y: np.ndarray | None = None          # (r, r) Delta (A^-1)_II Delta^T, S = G Y G^T
-    GY: np.ndarray | None = None         # (2 npts, r) G Y
     Z: dict = field(default_factory=dict)  # point -> (ndof, 2) A^-1 B_p^T (few active points)
     jac_lu: tuple | None = None          # LU of the last r x r Jacobian K factorised (reuse)
     base: bool = True                    # the nominal step's entry (never evicted)
@@ -214,8 +234,6 @@ class NewmarkSolver:
     max_cache : number of step sizes whose factorisation/S columns are kept
     few_max : up to this many active points u_lin is formed whole and u recovered from cached
               columns A^-1 B_p^T (one solve per step, as a linear step); more: split solve
-    sparse_jacobian : form G^T Dw G sparse before multiplying by Y (None: when 2 npts >= 4 r,
-              i.e. many Gauss points per interface node)
     jacobian_reuse : solve the r x r Newton system by iterative refinement on the LU of the
               last one factorised (same step size) while that contracts fast; else factorise
               (the direction is the same to round-off: relative residual 1e-13)
@@ -224,7 +242,7 @@ class NewmarkSolver:
     def __init__(self, K, M, C, B, w, law, *, dt, beta=None, gamma=None, alpha_hht=0.0,
                  tol_residual=1e-8, tol_energy=1e-16, max_iter=25, min_dt=None,
                  method="condensed", line_search=True, max_cache=6, active_tol=1e-12,
-                 few_max=16, sparse_jacobian=None, jacobian_reuse=True):
+                 few_max=16, jacobian_reuse=True):
         if method not in ("condensed", "full"):
             raise ValueError(f"NewmarkSolver method = {method!r} is not allowed; allowed: "
                              "'condensed', 'full'")
@@ -254,7 +272,6 @@ class NewmarkSolver:
         self.line_search = bool(line_search)
         self.max_cache = int(max_cache)
         self.few_max = int(few_max)
-        self.sparse_jacobian = sparse_jacobian
         self.active_tol = float(active_tol)
         self.jacobian_reuse = bool(jacobian_reuse)
         self.stats = dict(jacobian_factorisations=0, jacobian_solves=0, jacobian_reuses=0)
@@ -267,6 +284,7 @@ class NewmarkSolver:
         # B_I = G Delta: Delta^T (|I| x r), G (2 npts x r) sparse; S = G (Delta X Delta^T) G^T
         self._G, self._Dt = _relative_dofs(self._BI)
         self._GT = self._G.T.tocsr()
+        self._ptp = self._ptp_of = self._ptp_map = None   # G^T Dw G pattern (_ptp_pattern)
         self._cache: OrderedDict = OrderedDict()
         self._static_cache = None
         self._Minv = None
@@ -385,7 +403,7 @@ class NewmarkSolver:
         return e
 
     def _ensure_Y(self, e: _Cache):
-        """Y = Delta (A^-1)_II Delta^T (r x r) and G Y, once per step size: partial solves with
+        """Y = Delta (A^-1)_II Delta^T (r x r), once per step size: partial solves with
         right-hand sides and wanted entries on the interface DOFs only (SparseFactor.restrict),
         r of them (one per relative interface DOF), in blocks (bounded work memory)."""
         if e.Y is not None:
@@ -397,7 +415,6 @@ class NewmarkSolver:
             XD[:, k:k + 128] = e.factor.solve_at(Dt[:, k:k + 128].toarray())
         Y = np.asarray(Dt.T @ XD)
         e.Y = 0.5 * (Y + Y.T)                             # symmetric to round-off
-        e.GY = np.asarray(self._G @ e.Y)
 
     def _phi_mask(self, phi, g):
         """Points whose correction phi is not round-off of K0 g."""
@@ -496,7 +513,7 @@ class NewmarkSolver:
             """S[:, ad] @ y = G Y G^T (y scattered on ad): never forms S (2 npts x 2 npts)."""
             yp = np.zeros(n2)
             yp[ad] = y
-            return e.GY @ (self._GT @ yp)
+            return self._G @ (e.Y @ (self._GT @ yp))    # r^2 + nnz(G), not 2 npts r
 
         g = g_lin - c * Smul(ad, wd[ad] * self._phi[ad]) if ad.size else g_lin.copy()
         gscale = max(np.linalg.norm(g_lin), self._gref)
@@ -592,7 +609,7 @@ class NewmarkSolver:
         J^-1 b = b - S_:a (I + Dw_a S_aa)^-1 Dw_a b_a with S_:a = G Y G_a^T (2m x 2m system)."""
         self.stats["jacobian_solves"] += 1
         if ad.size < e.Y.shape[0]:
-            Sa = e.GY @ self._GT[:, ad].toarray()                  # (2 npts, 2m)
+            Sa = self._G @ (e.Y @ self._GT[:, ad].toarray())       # (2 npts, 2m)
             m = ad.size // 2
             pa = ad[0::2] // 2
             Dw = E[pa] * (c * self.w[pa])[:, None, None]          # (m, 2, 2)
@@ -606,36 +623,47 @@ class NewmarkSolver:
                 raise np.linalg.LinAlgError("interface Jacobian: non-finite solution")
             return x
         Dw = E * (c * self.w)[:, None, None]                       # (npts, 2, 2)
-        GY = e.GY
-        n2, r = GY.shape
-        GT = self._GT
-        if self.sparse_jacobian or (self.sparse_jacobian is None and n2 >= 4 * r):
-            # many points per relative DOF: G^T Dw G sparse (O(npts)), then times Y
-            n = self.npts
-            Db = sp.bsr_matrix((Dw, np.arange(n), np.arange(n + 1)), shape=(n2, n2))
-            K = np.asarray((GT @ (Db @ self._G)) @ e.Y)
-            K[np.diag_indices_from(K)] += 1.0
-        else:
-            # (G^T Dw G) Y = G^T (Dw (G Y)) row by row of G^T (numba, one pass over GY)
-            K = np.empty((r, r))
-            _jac_matrix(GT.indptr, GT.indices, GT.data, Dw, GY, K)
-        v = GT @ _block_mul(Dw, b)
+        # P = G^T Dw G sparse (r x r, banded; its values scattered by a map built once);
+        # K = I + P Y is only formed to be factorised: refinement needs K x = x + P (Y x)
+        P = self._ptp_pattern()
+        _ptp_values(*self._ptp_map, self._G.data, Dw, P.data)
+        v = self._GT @ _block_mul(Dw, b)
         z = None
         if self.jacobian_reuse and e.jac_lu is not None:
-            z = _refine(e.jac_lu, K, v)
+            z = _refine(e.jac_lu, lambda x: x + P @ (e.Y @ x), v)
             if z is not None:
                 self.stats["jacobian_reuses"] += 1
         if z is None:
+            K = np.asarray(P @ e.Y)
+            K[np.diag_indices_from(K)] += 1.0
             lu, piv, info = sla.lapack.dgetrf(K, overwrite_a=True)
             if info != 0:
                 raise np.linalg.LinAlgError(f"interface Jacobian singular (dgetrf info {info})")
             self.stats["jacobian_factorisations"] += 1
             e.jac_lu = (lu, piv)
             z = _getrs(e.jac_lu, v)
-        x = b - GY @ z
+        x = b - self._G @ (e.Y @ z)
         if not np.all(np.isfinite(x)):
             raise np.linalg.LinAlgError("interface Jacobian: non-finite solution")
         return x
+
+    def _ptp_pattern(self):
+        """The (r x r) CSR pattern of G^T Dw G for block-diagonal Dw, and the map that scatters
+        G_pa Dw_p,ab G_pb into its values (built once)."""
+        if self._ptp is None or self._ptp_of is not self._G:
+            G = self._G
+            r = G.shape[1]
+            PT, A, Bk, Q1, Q2 = _ptp_pairs(G.indptr.astype(np.int64), self.npts)
+            rows, cols = G.indices[Q1], G.indices[Q2]
+            P = sp.csr_matrix((np.ones(rows.size), (rows, cols)), shape=(r, r))
+            P.sum_duplicates()
+            P.sort_indices()
+            prow = np.repeat(np.arange(r), np.diff(P.indptr))
+            pos = np.searchsorted(prow.astype(np.int64) * r + P.indices,
+                                  rows.astype(np.int64) * r + cols)
+            self._ptp, self._ptp_of = P, G
+            self._ptp_map = (PT, A, Bk, Q1, Q2, pos)
+        return self._ptp
 
     def _newton_full(self, h, rhs, c):
         law, state = self.law, self.state
