@@ -55,22 +55,24 @@ def _fwd_mat(Lp, Li, Lx, y):
 
 
 @njit(cache=True)
-def _ldl_solve(Lp, Li, Lx, D, perm, b, x, y):
+def _ldl_solve(Lp, Li, Lx, Rp, Ri, Rx, D, perm, b, x, y):
     """Solve A x = b, P A P^T = L D L^T (symmetric), b (n, k): y = P b; L z = y;
-    L^T w = D^-1 z (gathers along the columns of L); x = P^T w."""
+    L^T w = D^-1 z (dot products down the columns of L, read from the reversed copy
+    (Rp, Ri, Rx), see ``_reversed``); x = P^T w."""
     n, k = b.shape
     for i in range(n):
         pi = perm[i]
         for r in range(k):
             y[pi, r] = b[i, r]
     _fwd_mat(Lp, Li, Lx, y)
-    for j in range(n - 1, -1, -1):
+    for kk in range(n):
+        j = n - 1 - kk
         d = D[j]
         for r in range(k):
             y[j, r] /= d
-        for q in range(Lp[j] + 1, Lp[j + 1]):
-            i = Li[q]
-            lv = Lx[q]
+        for q in range(Rp[kk], Rp[kk + 1]):
+            i = Ri[q]
+            lv = Rx[q]
             for r in range(k):
                 y[j, r] -= lv * y[i, r]
     for i in range(n):
@@ -106,17 +108,41 @@ def _bwd1(Up, Ui, Ux, perm_c, z, x):
 
 
 @njit(cache=True)
-def _bwd1_ldl(Lp, Li, Lx, D, perm, z, x):
+def _bwd1_ldl(Rp, Ri, Rx, D, perm, z, x):
     """Backward half, symmetric: x = P^T L^-T D^-1 z, by dot products down the columns of L
-    (z is overwritten)."""
+    taken last to first from the reversed copy (ascending addresses; z is overwritten)."""
     n = z.shape[0]
-    for j in range(n - 1, -1, -1):
+    for k in range(n):
+        j = n - 1 - k
         acc = z[j] / D[j]
-        for q in range(Lp[j] + 1, Lp[j + 1]):
-            acc -= Lx[q] * z[Li[q]]
+        for q in range(Rp[k], Rp[k + 1]):
+            acc -= Rx[q] * z[Ri[q]]
         z[j] = acc
     for i in range(n):
         x[i] = z[perm[i]]
+
+
+@njit(cache=True)
+def _reversed(Lp, Li, Lx):
+    """L's columns last to first, off-diagonal entries only: column j = n-1-k is
+    Ri/Rx[Rp[k]:Rp[k+1]]. The backward half of a solve visits the columns in that order; read
+    from L itself it walks memory downwards, which the hardware prefetcher does not follow
+    (2.4-2.6 ms against 1.1 ms for the same arithmetic on the Koyna factor, measured)."""
+    n = Lp.shape[0] - 1
+    Rp = np.empty(n + 1, np.int32)
+    Rp[0] = 0
+    for k in range(n):
+        j = n - 1 - k
+        Rp[k + 1] = Rp[k] + (Lp[j + 1] - Lp[j] - 1)
+    Ri = np.empty(Rp[n], np.int32)
+    Rx = np.empty(Rp[n])
+    for k in range(n):
+        j = n - 1 - k
+        q0 = Lp[j] + 1
+        for t in range(Rp[k + 1] - Rp[k]):
+            Ri[Rp[k] + t] = Li[q0 + t]
+            Rx[Rp[k] + t] = Lx[q0 + t]
+    return Rp, Ri, Rx
 
 
 @njit(cache=True)
@@ -145,14 +171,15 @@ def _fwd_part(Lp, Li, Lx, cols, rows_in, b, y):
 def _bwd_part(Urp, Urj, Urx, D, rows, z, w):
     """U^-1 z on the positions ``rows`` only (descending; closed under the row structure of U,
     so every entry they need is among them). U by rows with its diagonal first in each row
-    (D None) or, symmetric, U = D L^T: row j of U is D[j] times column j of L, passed as
-    (Lp, Li, Lx) with the diagonal D."""
+    (D None); or, symmetric, U = D L^T: row j of U is D[j] times column j of L, passed as the
+    reversed copy of L (``_reversed``) with ``rows`` given as k = n-1-j (ascending)."""
     k = z.shape[1]
+    n = z.shape[0]
     for a in range(rows.shape[0]):
-        j = rows[a]
-        for r in range(k):
-            w[j, r] = z[j, r]
         if D is None:
+            j = rows[a]
+            for r in range(k):
+                w[j, r] = z[j, r]
             for q in range(Urp[j] + 1, Urp[j + 1]):
                 i = Urj[q]
                 uv = Urx[q]
@@ -162,10 +189,12 @@ def _bwd_part(Urp, Urj, Urx, D, rows, z, w):
             for r in range(k):
                 w[j, r] /= d
         else:
+            kk = rows[a]
+            j = n - 1 - kk
             d = D[j]
             for r in range(k):
-                w[j, r] /= d
-            for q in range(Urp[j] + 1, Urp[j + 1]):
+                w[j, r] = z[j, r] / d
+            for q in range(Urp[kk], Urp[kk + 1]):
                 i = Urj[q]
                 lv = Urx[q]
                 for r in range(k):
@@ -188,16 +217,19 @@ def _fwd_part1(Lp, Li, Lx, cols, rows_in, b, y):
 @njit(cache=True)
 def _bwd_part1(Urp, Urj, Urx, D, rows, z, w):
     """_bwd_part for one right-hand side (z, w (n,))."""
+    n = z.shape[0]
     for a in range(rows.shape[0]):
-        j = rows[a]
         if D is None:
+            j = rows[a]
             acc = z[j]
             for q in range(Urp[j] + 1, Urp[j + 1]):
                 acc -= Urx[q] * w[Urj[q]]
             w[j] = acc / Urx[Urp[j]]
         else:
+            kk = rows[a]
+            j = n - 1 - kk
             acc = z[j] / D[j]
-            for q in range(Urp[j] + 1, Urp[j + 1]):
+            for q in range(Urp[kk], Urp[kk + 1]):
                 acc -= Urx[q] * w[Urj[q]]
             w[j] = acc
 
@@ -232,11 +264,11 @@ class SparseFactor:
 
     symmetric=True: SuperLU with MMD ordering on A^T + A, symmetric mode, no pivoting (the
     effective matrices of the condensed method are SPD): then perm_r = perm_c = P and
-    U = D L^T to round-off, so only L and D are kept (P A P^T = L D L^T) and the backward half
-    reads L again (dot products down its columns): half the memory of L and U, and the two
-    halves of a solve stream the same 6.6 MB on the default Koyna mesh (issue #15; measured in
-    BENCHMARKS.md). If SuperLU pivoted anyway, or U is not D L^T to 1e-10, the general LU is
-    kept. symmetric=False: partial pivoting, L and U.
+    U = D L^T to round-off, so U is not kept (P A P^T = L D L^T): the backward half takes dot
+    products down the columns of L, last column first, read from a reversed copy of L so that
+    both halves stream memory upwards (``_reversed``; issue #15, measured in BENCHMARKS.md).
+    If SuperLU pivoted anyway, or U is not D L^T to 1e-10, the general LU is kept.
+    symmetric=False: partial pivoting, L and U.
     ``solve(b)`` accepts (n,) or (n, k).  ``fast=False`` uses SuperLU's own solve.
     """
 
@@ -252,6 +284,7 @@ class SparseFactor:
         self._part = None
         self._D = None
         self._U = None
+        self._R = None
         if fast:
             L = lu.L.tocsc()
             U = lu.U.tocsc()
@@ -263,6 +296,7 @@ class SparseFactor:
             self._pc = lu.perm_c.astype(np.int64)
             if symmetric and np.array_equal(self._pr, self._pc) and _is_dlt(L, U):
                 self._D = U.diagonal().copy()
+                self._R = _reversed(*self._L)
             else:
                 self._U = (U.indptr.astype(np.int32), U.indices.astype(np.int32), U.data)
             self._lu = None                  # SuperLU's own copy of the factors is not kept
@@ -291,7 +325,7 @@ class SparseFactor:
         x = np.empty_like(b2)
         y = np.empty_like(b2)
         if self.ldl:
-            _ldl_solve(*self._L, self._D, self._pr, b2, x, y)
+            _ldl_solve(*self._L, *self._R, self._D, self._pr, b2, x, y)
         else:
             _lu_solve(*self._L, *self._U, self._pr, self._pc, b2, x, y)
         return x
@@ -309,15 +343,17 @@ class SparseFactor:
         Lp, Li, _ = self._L
         rin = self._pr[dofs]
         fcols = np.flatnonzero(_closure(Lp, Li, rin))
-        if self.ldl:
-            Ur = self._L                      # row j of U = D_j L[:, j]^T: L's own columns
+        n = self.shape[0]
+        if self.ldl:                          # row j of U = D_j L[:, j]^T: L's own columns
+            brows = n - 1 - np.flatnonzero(_closure(Lp, Li, self._pc[dofs]))[::-1]
+            Ur = self._R                      # ... read from the reversed copy, k = n-1-j
         else:
             Up, Ui, Ux = self._U
             Ur = sp.csc_matrix((Ux, Ui, Up), shape=self.shape).tocsr()
             Ur.sort_indices()
             Ur = (Ur.indptr.astype(np.int32), Ur.indices.astype(np.int32), Ur.data)
+            brows = np.flatnonzero(_closure(Ur[0], Ur[1], self._pc[dofs]))[::-1].copy()
         qout = self._pc[dofs]
-        brows = np.flatnonzero(_closure(Ur[0], Ur[1], qout))[::-1].copy()
         self._part = dict(dofs=dofs, rin=rin, fcols=fcols, Ur=Ur, qout=qout, brows=brows)
         return self
 
@@ -342,7 +378,7 @@ class SparseFactor:
         zz = np.array(z, dtype=np.float64)
         x = np.empty_like(zz)
         if self.ldl:
-            _bwd1_ldl(*self._L, self._D, self._pc, zz, x)
+            _bwd1_ldl(*self._R, self._D, self._pc, zz, x)
         else:
             _bwd1(*self._U, self._pc, zz, x)
         return x
