@@ -12,7 +12,7 @@ import numpy as np
 from ..setup import build_law, build_scaling
 from ..solve.joint_laws import JointLaws
 
-__all__ = ["JointSet", "crack_measures", "JOINT_KEYS"]
+__all__ = ["JointSet", "crack_measures", "debonded_measures", "JOINT_KEYS"]
 
 # per-joint history columns, prefixed "<joint>_" in timeseries.csv
 JOINT_KEYS = ("crack_length", "crack_length_upstream", "n_debonded", "max_D", "D_upstream",
@@ -22,7 +22,12 @@ JOINT_KEYS = ("crack_length", "crack_length_upstream", "n_debonded", "max_D", "D
 def crack_measures(state, w) -> tuple[float, float, int]:
     """(sum of w over debonded points, contiguous debonded length from the upstream end,
     n debonded) of one joint. Points are sorted from the upstream end."""
-    deb = np.asarray(state.debonded, bool)
+    return debonded_measures(np.asarray(state.debonded, bool), w)
+
+
+def debonded_measures(deb, w) -> tuple[float, float, int]:
+    """``crack_measures`` from the debonded mask ``deb`` of the joint's points (the run loop
+    computes the mask of all joints once per step and passes slices of it)."""
     total = float(np.sum(w[deb]))
     if deb.size and deb[0]:
         k = int(np.argmin(deb)) if not deb.all() else deb.size
@@ -44,6 +49,10 @@ class JointSet:
         self.laws = [sc.update(law, 0.0) if sc is not None else law
                      for sc, law in zip(self.scalings, self.reference)]
         self.sizes = [0.0] * len(self.names)
+        # the failed length each law was last updated for: the update is a function of it
+        # alone, so an unchanged length leaves the law and the size as they are (skipped)
+        self._b = [None] * len(self.names)
+        self._wsum = [float(self.w[sl].sum()) for sl in self.slices]
 
     def __len__(self):
         return len(self.names)
@@ -56,35 +65,44 @@ class JointSet:
         """Size-scale update at the start of a step from each joint's failed length; True if
         any law changed (the solver must then be given ``solver_law()``)."""
         changed = False
+        deb = None
         for i, (sc, sl) in enumerate(zip(self.scalings, self.slices)):
             if sc is None:
                 self.sizes[i] = 0.0
                 continue
-            b = crack_measures(state.take(sl), self.w[sl])[0]
+            if deb is None:
+                deb = np.asarray(state.debonded, bool)
+            b = float(np.sum(self.w[sl][deb[sl]]))     # crack_measures(...)[0]
+            if b == self._b[i]:
+                continue
             new = sc.update(self.laws[i], b)
             if new.cohesive != self.laws[i].cohesive or new.friction != self.laws[i].friction:
                 self.laws[i] = new
                 changed = True
             self.sizes[i] = sc.size(b)
+            self._b[i] = b
         return changed
 
     def measures(self, state, gap) -> dict:
         """{"<joint>_<key>": value} for every joint and JOINT_KEYS."""
         out = {}
-        for name, sl, law, b in zip(self.names, self.slices, self.laws, self.sizes):
-            st = state.take(sl)
+        deb = np.asarray(state.debonded, bool)
+        damage = state.damage
+        for name, sl, law, b, wsum in zip(self.names, self.slices, self.laws, self.sizes,
+                                          self._wsum):
             w = self.w[sl]
-            total, upstream, ndeb = crack_measures(st, w)
+            total, upstream, ndeb = debonded_measures(deb[sl], w)
+            d = damage[sl]
             g = gap[sl]
-            out.update({f"{name}_crack_length": total,
-                        f"{name}_crack_length_upstream": upstream,
-                        f"{name}_n_debonded": ndeb,
-                        f"{name}_max_D": float(st.damage.max()),
-                        f"{name}_D_upstream": float(st.damage[0]),
-                        f"{name}_opening_upstream": float(g[0, 0]),
-                        f"{name}_slip_mean": float(np.dot(w, g[:, 1]) / w.sum()),
-                        f"{name}_size_b": b,
-                        f"{name}_sigma_max": law.cohesive.sigma_max})
+            out[f"{name}_crack_length"] = total
+            out[f"{name}_crack_length_upstream"] = upstream
+            out[f"{name}_n_debonded"] = ndeb
+            out[f"{name}_max_D"] = float(d.max())
+            out[f"{name}_D_upstream"] = float(d[0])
+            out[f"{name}_opening_upstream"] = float(g[0, 0])
+            out[f"{name}_slip_mean"] = float(np.dot(w, g[:, 1]) / wsum)
+            out[f"{name}_size_b"] = b
+            out[f"{name}_sigma_max"] = law.cohesive.sigma_max
         return out
 
     def history_keys(self) -> list[str]:

@@ -27,7 +27,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..setup.uplift import heads, joint_extent, pressure_profile
-from .joints import crack_measures
+from .joints import debonded_measures
 
 __all__ = ["UpliftField", "Safety", "tailwater_load", "SAFETY_KEYS", "FS_CRITERION"]
 
@@ -86,17 +86,18 @@ class UpliftField:
     def pressure(self, state) -> np.ndarray:
         """p [Pa] at every point for the crack state ``state`` (module docstring)."""
         p = np.zeros(self.w.size)
+        deb = None
         for (up, s, L, ph, pt), sl in zip(self.spec, self.slices):
             if up.model == "none":
                 continue
-            st = state.take(sl)
+            if deb is None:
+                deb = np.asarray(state.debonded, bool)
             if up.in_crack == "unchanged" and self.p_pre is not None:
                 p[sl] = self.p_pre[sl]
             elif up.in_crack == "zero":
-                p[sl] = np.where(np.asarray(st.debonded, bool), 0.0,
-                                 pressure_profile(s, L, ph, pt, up))
+                p[sl] = np.where(deb[sl], 0.0, pressure_profile(s, L, ph, pt, up))
             else:      # full_headwater; "unchanged" before the shaking: the cracked drawing
-                a = crack_measures(st, self.w[sl])[1]
+                a = debonded_measures(deb[sl], self.w[sl])[1]
                 p[sl] = pressure_profile(s, L, ph, pt, up, crack=a)
         return p
 
@@ -128,6 +129,7 @@ class Safety:
     def __init__(self, scene, model, joints, gm=None):
         self.scene = scene
         self.joints = joints
+        self._step_keys = [(n, k, f"{n}_{k}") for n in joints.names for k in SAFETY_KEYS]
         self.uplift = UpliftField(scene, model.interface, joints.names, joints.slices)
         u = scene.uplift
         self.f_tail = tailwater_load(model, u.tailwater, scene.loads.water_density,
@@ -237,16 +239,17 @@ class Safety:
         friction, sliding_fs, slip_mean}} from tractions t, state and pressure p."""
         out = {}
         w = self.joints.w
+        deb = np.asarray(state.debonded, bool)
+        kappa, damage = state.kappa, state.damage
         for name, sl, law in zip(self.joints.names, self.joints.slices, self.joints.laws):
             ws = w[sl]
-            st = state.take(sl)
             N = -float(np.dot(ws, t[sl, 0]))
             T = abs(float(np.dot(ws, t[sl, 1])))
             U = float(np.dot(ws, p[sl]))
-            bonded = ~np.asarray(st.debonded, bool)
+            bonded = ~deb[sl]
             c = law.cohesive
-            soft = np.clip((1.0 - st.kappa) / (1.0 - c.lambda_max), 0.0, 1.0)
-            cp = (1.0 - st.damage) * c.tau_max * (c.l_Nc / c.l_Tc) * soft
+            soft = np.clip((1.0 - kappa[sl]) / (1.0 - c.lambda_max), 0.0, 1.0)
+            cp = (1.0 - damage[sl]) * c.tau_max * (c.l_Nc / c.l_Tc) * soft
             C = float(np.dot(ws[bonded], cp[bonded]))
             f = 0.0 if law.friction is None else float(law.friction.f)
             num = f * max(N, 0.0) + C
@@ -259,7 +262,7 @@ class Safety:
     def step_measures(self, t, state) -> dict:
         """The per-step history columns "<joint>_<SAFETY_KEYS>"."""
         m = self.joint_measures(t, state, self.uplift.p)
-        return {f"{n}_{k}": m[n][k] for n in m for k in SAFETY_KEYS}
+        return {key: m[n][k] for n, k, key in self._step_keys}
 
     def history_keys(self) -> list[str]:
         return [f"{n}_{k}" for n in self.joints.names for k in SAFETY_KEYS]
