@@ -130,7 +130,9 @@ def run(scene, outdir=None, resume: bool = False, progress: bool = True,
     f_static = f_base                          # + the static uplift, once it is known
     cx, cy = model.crest_dofs
     chars = characteristic_times(scene, ref_coh.l_Nc)
-    energy = EnergyBudget(model.K, model.M, C, w, joints)
+    # C = a0 M + a1 K (+ dashpots): the budget's damping work needs no product with C
+    energy = EnergyBudget(model.K, model.M, C, w, joints, rayleigh=(damp["a0"], damp["a1"]),
+                          C_extra=None if safety.absorbing is None else safety.absorbing.C)
     # the wall time stays the last column (everything before it is deterministic)
     hist_keys = (list(HIST_KEYS[:-1]) + joints.history_keys() + safety.history_keys()
                  + energy.keys() + ["wall"])
@@ -252,6 +254,7 @@ def run(scene, outdir=None, resume: bool = False, progress: bool = True,
     stopped = None
     stop_slip = scene.time.stop_slip
     nb = base.stop - base.start
+    n_cuts, n_cuts_at = 0, 0
     try:
         for k in range(k_start + 1, n_steps + 1):
             f_k = f_static - Mrx * ax[k] - Mry * ay[k]
@@ -282,8 +285,11 @@ def run(scene, outdir=None, resume: bool = False, progress: bool = True,
                 vtk.write(solver.u, times[k], solver)
             bar.update(1)
             if progress and (k % 10 == 0 or k == n_steps):
+                # the cuts so far: a running sum (summing the whole column is O(k) per call)
+                n_cuts += int(sum(hist.cols["cuts"][n_cuts_at:]))
+                n_cuts_at = len(hist)
                 bar.set_postfix_str(f"t={times[k]:.3f}s it={rep.iterations} "
-                                    f"cuts={int(np.sum(hist.cols['cuts']))} "
+                                    f"cuts={n_cuts} "
                                     f"crack={jm['base_crack_length_upstream']:.3f}m "
                                     f"Dheel={st.damage[0]:.3f}", refresh=False)
             steps_this_call += 1

@@ -39,33 +39,73 @@ ENERGY_KEYS = ("W_ext", "E_kin", "E_bulk", "E_damp", "E_stored", "E_diss", "E_sc
 
 def stored_energy(law, t, g, state) -> np.ndarray:
     """Recoverable energy per unit area of each point [J/m^2] (see module doc)."""
+    deb = np.asarray(state.debonded, bool) if law.friction is not None else None
+    return _stored_energy(law, t, g, deb)
+
+
+def _stored_energy(law, t, g, deb) -> np.ndarray:
+    """``stored_energy`` with the points' debonded mask ``deb`` (needed with friction only)."""
     e = 0.5 * t[:, 0] * g[:, 0]
     tang = 0.5 * t[:, 1] * g[:, 1]
     if law.friction is not None:
         ct = law.friction.penalty if law.friction.penalty is not None \
             else law.cohesive.k_tangential
-        fr = np.asarray(state.debonded, bool) & (t[:, 0] < 0.0)
+        fr = deb & (t[:, 0] < 0.0)
         tang = np.where(fr, 0.5 * t[:, 1] ** 2 / ct, tang)
     return e + tang
 
 
-class EnergyBudget:
-    """Accumulates the budget; ``start`` at the static state, ``step`` after each step."""
+def _symmetric(A) -> bool:
+    """A (sparse) equals its transpose to round-off."""
+    if A.shape[0] != A.shape[1]:
+        return False
+    d = abs(A - A.T)
+    return d.nnz == 0 or float(d.max()) <= 1e-13 * float(abs(A).max())
 
-    def __init__(self, K, M, C, w, joints):
+
+class EnergyBudget:
+    """Accumulates the budget; ``start`` at the static state, ``step`` after each step.
+
+    rayleigh = (a0, a1) says that C = a0 M + a1 K + C_extra (C_extra: None or a sparse
+    matrix, e.g. the dashpots of absorbing boundaries). For symmetric M and K the damping work
+    of a step is then formed from the products the budget takes anyway (no product with C):
+
+        du.C(v0 + v) = a0 du.(M v0 + M v) + a1 (v0 + v).(K u - K u0) + du.C_extra (v0 + v)
+
+    (equal to the direct product to round-off); without it, du.C(v0 + v) directly."""
+
+    def __init__(self, K, M, C, w, joints, rayleigh=None, C_extra=None):
         self.K, self.M, self.C, self.w = K, M, C, w
         self.joints = joints              # run.joints.JointSet (names, slices, laws)
         self.rows = []
+        self._split = None
+        if C is not None and rayleigh is not None and _symmetric(K) and _symmetric(M):
+            self._split = (float(rayleigh[0]), float(rayleigh[1]), C_extra)
+        self._prods = None                # (M v, K u) of the previous state
 
-    def _levels(self, u, v, t, g, state):
-        stored = [float(np.dot(self.w[sl], stored_energy(law, t[sl], g[sl], state.take(sl))))
-                  for law, sl in zip(self.joints.laws, self.joints.slices)]
-        diss = [float(np.dot(self.w[sl], state.dissipated[sl])) for sl in self.joints.slices]
-        return (0.5 * float(v @ (self.M @ v)), 0.5 * float(u @ (self.K @ u)), stored, diss)
+    def _levels(self, u, v, t, g, state, Mv=None, Ku=None):
+        if Mv is None:
+            Mv, Ku = self.M @ v, self.K @ u
+        stored, diss = self._joint_levels(t, g, state)
+        return (0.5 * float(v @ Mv), 0.5 * float(u @ Ku), stored, diss)
+
+    def _joint_levels(self, t, g, state):
+        laws = self.joints.laws
+        deb = (np.asarray(state.debonded, bool)
+               if any(law.friction is not None for law in laws) else None)
+        dissipated = state.dissipated
+        stored, diss = [], []
+        for law, sl in zip(laws, self.joints.slices):
+            w = self.w[sl]
+            stored.append(float(np.dot(w, _stored_energy(law, t[sl], g[sl],
+                                                         None if deb is None else deb[sl]))))
+            diss.append(float(np.dot(w, dissipated[sl])))
+        return stored, diss
 
     def start(self, u, v, f, t, g, state):
         self._prev = (u.copy(), v.copy(), f.copy())
-        self._ref = self._levels(u, v, t, g, state)
+        self._prods = (self.M @ v, self.K @ u)
+        self._ref = self._levels(u, v, t, g, state, *self._prods)
         self.W_ext = 0.0
         self.E_damp = 0.0
         self.E_scaling = 0.0
@@ -88,10 +128,20 @@ class EnergyBudget:
         u0, v0, f0 = self._prev
         du = u - u0
         self.W_ext += 0.5 * float(du @ (f0 + f))
-        if self.C is not None:
+        Mv, Ku = self.M @ v, self.K @ u
+        if self._split is not None:
+            a0, a1, C_extra = self._split
+            Mv0, Ku0 = self._prods
+            vs = v0 + v
+            work = a0 * float(du @ (Mv0 + Mv)) + a1 * float(vs @ (Ku - Ku0))
+            if C_extra is not None:
+                work += float(du @ (C_extra @ vs))
+            self.E_damp += 0.5 * work
+        elif self.C is not None:
             self.E_damp += 0.5 * float(du @ (self.C @ (v0 + v)))
         self._prev = (u.copy(), v.copy(), f.copy())
-        kin, bulk, stored, diss = self._levels(u, v, t, g, state)
+        self._prods = (Mv, Ku)
+        kin, bulk, stored, diss = self._levels(u, v, t, g, state, Mv, Ku)
         k0, b0, s0, d0 = self._ref
         row = {"W_ext": self.W_ext, "E_kin": kin - k0, "E_bulk": bulk - b0,
                "E_damp": self.E_damp}
@@ -125,3 +175,5 @@ class EnergyBudget:
         self._ref = (float(r[0]), float(r[1]), [float(x) for x in r[2:2 + n]],
                      [float(x) for x in r[2 + n:2 + 2 * n]])
         self.W_ext, self.E_damp, self.E_scaling = (float(x) for x in arrs["energy_acc"])
+        u0, v0, _ = self._prev              # the products the run had (bitwise the same)
+        self._prods = (self.M @ v0, self.K @ u0)
