@@ -813,6 +813,16 @@ class NewmarkSolver:
         self.history.append(rep)
         return rep
 
+    def forget_jacobian(self):
+        """Drop the LUs kept for ``jacobian_reuse`` (the only numbers carried from step to step
+        besides the committed state). A run calls it after writing a checkpoint, so that a run
+        resumed from that checkpoint (a fresh solver) and the uninterrupted run take the same
+        Newton directions bit for bit."""
+        for e in self._cache.values():
+            e.jac_lu = None
+        if self._static_cache is not None:
+            self._static_cache.jac_lu = None
+
     # ------------------------------------------------------------------ diagnostics
     def energy(self):
         """Kinetic + elastic (bulk + interface at K0) energy of the committed state; exact
