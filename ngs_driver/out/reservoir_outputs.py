@@ -182,10 +182,8 @@ class ReservoirRun:
                 w.writerow([f"{self.rows[k][i]:.9g}" for k in keys])
         files = ["reservoir_pressure.csv"]
         if plots and self.rows["t"]:
-            import matplotlib
-            matplotlib.use("Agg")
-            import matplotlib.pyplot as plt
-            fig, (a1, a2) = plt.subplots(2, 1, figsize=(8, 6), sharex=True)
+            from .plots import subplots
+            fig, (a1, a2) = subplots(2, 1, figsize=(8, 6), sharex=True)
             t = np.asarray(self.rows["t"])
             for y in self.ys:
                 a1.plot(t, np.asarray(self.rows[f"p_y{y:.2f}"]) / 1e3, label=f"y = {y:.1f} m")
@@ -199,7 +197,6 @@ class ReservoirRun:
             a2.set_xlabel("t [s]")
             fig.tight_layout()
             fig.savefig(out / "reservoir_pressure.png", dpi=120)
-            plt.close(fig)
             files.append("reservoir_pressure.png")
         files += [f"vtk/{f}" for f in getattr(self, "_vtk_files", [])]
         return files

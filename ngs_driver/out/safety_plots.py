@@ -17,14 +17,12 @@ def _fmt(v, f="{:.4g}"):
 def plot_sliding_fs(path, H, static_joints, post, title, criterion=1.3):
     """FS(t) per joint (static value at t = 0, post-earthquake value after the record) and the
     base's N', T, U."""
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    from .plots import subplots
 
     names = [k[:-len("_sliding_fs")] for k in H if k.endswith("_sliding_fs")]
     t = H["t"]
     t_end = float(t[-1]) if t.size else 0.0
-    fig, (a1, a2) = plt.subplots(2, 1, figsize=(8, 7), sharex=True)
+    fig, (a1, a2) = subplots(2, 1, figsize=(8, 7), sharex=True)
     for n in names:
         t0 = [0.0] + list(t)
         fs = [static_joints[n]["sliding_fs"] if static_joints else np.nan] + list(H[f"{n}_sliding_fs"])
@@ -49,7 +47,6 @@ def plot_sliding_fs(path, H, static_joints, post, title, criterion=1.3):
     a2.legend(fontsize=7)
     fig.tight_layout()
     fig.savefig(path, dpi=110)
-    plt.close(fig)
     return pathlib.Path(path).name
 
 
@@ -86,13 +83,12 @@ def safety_markdown(scene, static_joints, post, safety_sum) -> str:
 
 def plot_screening(path, scr, title):
     """Map of the maximum DCR over the record per dam element, the worst element marked."""
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
     from matplotlib.collections import PolyCollection
 
+    from .plots import subplots
+
     s = scr.summary()
-    fig, ax = plt.subplots(figsize=(6, 7))
+    fig, ax = subplots(figsize=(6, 7))
     pc = PolyCollection(scr.triangles, array=scr.max_dcr, cmap="viridis", edgecolors="none")
     pc.set_clim(0.0, max(2.0, float(np.max(scr.max_dcr))))
     ax.add_collection(pc)
@@ -108,7 +104,6 @@ def plot_screening(path, scr, title):
     ax.set_title(title + "\nlinear screening (EM 1110-2-6053): max over the record", fontsize=8)
     fig.tight_layout()
     fig.savefig(path, dpi=110)
-    plt.close(fig)
     return pathlib.Path(path).name
 
 
