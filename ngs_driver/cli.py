@@ -244,9 +244,17 @@ def cmd_bench(a) -> int:
 
 def main(argv=None) -> int:
     a = build_parser().parse_args(argv)
-    return {"run": cmd_run, "run-paper": cmd_run_paper, "compare": cmd_compare,
-            "modal": cmd_modal, "verify": cmd_verify, "bench": cmd_bench,
-            "ida": _cmd_ida}[a.cmd](a)
+    rc = {"run": cmd_run, "run-paper": cmd_run_paper, "compare": cmd_compare,
+          "modal": cmd_modal, "verify": cmd_verify, "bench": cmd_bench,
+          "ida": _cmd_ida}[a.cmd](a)
+    if argv is None:
+        # the command line (console script, python -m): the process ends here. Its last full
+        # garbage collection would scan every object left (numba, NGSolve, matplotlib: 0.1-1 s
+        # measured at the end of a Koyna run); frozen, they are left to the OS. Files are all
+        # written and closed by now (atomic writes).
+        import gc
+        gc.freeze()
+    return rc
 
 
 def _cmd_ida(a) -> int:
