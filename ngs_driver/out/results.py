@@ -62,13 +62,14 @@ def write_run_outputs(out, model, scene, gm, H, snaps, solver, u_static, joints,
                                      H["crack_length"])], title))
     if heel is None:
         heel = {"u": solver.u, "t": H["t"][-1] if len(H["t"]) else 0.0, "open": None}
+    tri = P._triangles(model)               # the mesh's triangles, for both mesh figures
     f = P.plot_heel_von_mises(out / "fig12_heel_von_mises.png", model, heel["u"],
                             title + f"\nt = {heel['t']:.3f} s: largest heel opening "
                             + (f"({1e3 * heel['open']:.3g} mm) " if heel["open"] is not None
-                               else "") + "while the base still holds")
+                               else "") + "while the base still holds", triangles=tri)
     if f:
         files.append(f)
     files.append(P.plot_mesh(out / "fig8b_mesh.png", model,
                            f"mesh: {model.mesh.nv} vertices, {model.mesh.ne} triangles, "
-                           f"{model.nfree} free DOFs"))
+                           f"{model.nfree} free DOFs", triangles=tri))
     return files
