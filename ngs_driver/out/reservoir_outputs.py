@@ -196,6 +196,7 @@ class ReservoirRun:
             a2.set_ylabel("force on the face Fx [MN/m]")
             a2.set_xlabel("t [s]")
             fig.tight_layout()
+            fig.set_layout_engine(None)      # laid out: savefig need not draw twice
             fig.savefig(out / "reservoir_pressure.png", dpi=120)
             files.append("reservoir_pressure.png")
         files += [f"vtk/{f}" for f in getattr(self, "_vtk_files", [])]

@@ -46,6 +46,7 @@ def plot_sliding_fs(path, H, static_joints, post, title, criterion=1.3):
     a2.set_ylabel("base forces [MN/m]")
     a2.legend(fontsize=7)
     fig.tight_layout()
+    fig.set_layout_engine(None)      # laid out: savefig need not draw twice
     fig.savefig(path, dpi=110)
     return pathlib.Path(path).name
 
@@ -103,6 +104,7 @@ def plot_screening(path, scr, title):
     ax.legend(fontsize=7, loc="upper right")
     ax.set_title(title + "\nlinear screening (EM 1110-2-6053): max over the record", fontsize=8)
     fig.tight_layout()
+    fig.set_layout_engine(None)      # laid out: savefig need not draw twice
     fig.savefig(path, dpi=110)
     return pathlib.Path(path).name
 
