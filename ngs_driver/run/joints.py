@@ -26,8 +26,8 @@ def crack_measures(state, w) -> tuple[float, float, int]:
 
 
 def debonded_measures(deb, w) -> tuple[float, float, int]:
-    """``crack_measures`` from the debonded mask ``deb`` of the joint's points (the run loop
-    computes the mask of all joints once per step and passes slices of it)."""
+    """``crack_measures`` from the debonded mask ``deb`` of the joint's points (a slice of
+    the mask of all joints, computed once instead of a state copy per joint)."""
     total = float(np.sum(w[deb]))
     if deb.size and deb[0]:
         k = int(np.argmin(deb)) if not deb.all() else deb.size
