@@ -17,16 +17,21 @@ value is discarded by a select — the inputs are checked finite by ``InterfaceL
 multiplication or sqrt in the *fast* specialisation, chosen per law by :func:`is_fast`); flat
 arrays indexed with a compile-time stride (``gap[2 i + 1]``, not ``gap[i, 1]``, whose row stride
 LLVM cannot see); the dimension and the specialisation are compile-time constants of inlined
-loop copies. The branches stay in the source: LLVM turns them into selects.
+loop copies. The branches stay in the source: LLVM turns them into selects. The branches on
+*parameters* (damage exponent, form, zero threshold) it kept as branches inside the vector loop,
+splitting it into blocks across which registers spill: the fast loop is compiled per kind of
+law with those values as constants (:func:`code`, ``numba.literally``), which leaves one block.
 """
 import math
 
 import numpy as np
 
-from numba import njit, prange
+from numba import literally, njit, prange
 
 # points per parallel chunk (a chunk is one vectorised serial loop)
 CHUNK = 4096
+# the spec argument of _law outside the fast loops (ignored there)
+_NO_SPEC = (1.0, 0.0, 1.0)
 
 
 @njit(cache=True, inline="always", error_model="numpy")
@@ -86,14 +91,17 @@ def _norm(x, y):
 def _point(gN, gT1, gT2, ko, Do, sepo, s1, s2, coh, contact, friction, damage, rdt):
     """One material point, scalars in, scalars out (the general specialisation of _law)."""
     return _law(gN, gT1, gT2, ko, Do, sepo, s1, s2, coh, contact, friction, damage, rdt, False,
-                True)
+                _NO_SPEC, True)
 
 
 @njit(cache=True, inline="always", error_model="numpy")
 def _law(gN, gT1, gT2, ko, Do, sepo, s1, s2, coh, contact, friction, damage, rdt, fast,
-         three):
+         spec, three):
     """One material point, scalars in, scalars out (no arrays: nothing to reference-count).
-    ``fast`` (compile-time constant): the law's exponents are 0, 1 or 2 (is_fast).
+    ``fast`` (compile-time constant): the law's exponents are 0, 1 or 2 (is_fast); then
+    ``spec`` = (alpha, damage form code, 1.0 if F_th = 0 else 0.0) are compile-time constants
+    equal to the law's own values (see :func:`code`), used instead of the run-time parameters:
+    LLVM then drops the branches on them from the loop (ignored when not fast).
     ``three``: 3D; False (a compile-time constant in the 2D loops) drops the arithmetic on the
     absent second tangential component (gT2 = s2 = 0): without fast-math LLVM cannot fold
     ``0/l`` or ``x + 0*y`` itself (inf and -0), and those are divisions and a sqrt per point.
@@ -152,8 +160,14 @@ def _law(gN, gT1, gT2, ko, Do, sepo, s1, s2, coh, contact, friction, damage, rdt
             dg = gs - sepo
             if dg > 0.0:
                 alpha, beta, gmax, fth, form = damage
+                zero_th = fth == 0.0 and beta == 0.0
+                if fast:           # the same values, as constants (fast: beta = 0, spec)
+                    alpha = spec[0]
+                    beta = 0.0
+                    form = spec[1]
+                    zero_th = spec[2] == 1.0
                 amag2 = a0 * a0 + a1 * a1 + a2 * a2 if three else a0 * a0 + a1 * a1
-                if fth == 0.0 and beta == 0.0:       # r > 0 <=> s > 0 and |a| > 0: no sqrt
+                if zero_th:                          # r > 0 <=> s > 0 and |a| > 0: no sqrt
                     amag = 1.0
                     x = 1.0 if (s > 0.0 and amag2 > 0.0) else 0.0
                 else:
@@ -300,16 +314,27 @@ def _law(gN, gT1, gT2, ko, Do, sepo, s1, s2, coh, contact, friction, damage, rdt
     return (F0, F1, F2, T00, T01, T02, T10, T11, T12, T20, T21, T22, kn, Dn, gs, n1, n2, dphi)
 
 
-# Four loop specialisations, compiled separately (one inlined copy of _law each: inlining
-# several copies into one function made numba's compile time explode, 12 s -> 9 min). ``fast``
-# is a literal in each so LLVM sees a constant. g, sl, F, T, sl_n are the flat (C-order) views
-# of gap, slip, traction, tangent and new slip, indexed with constant strides.
+# The loops, one per dim, serial and parallel. ``code`` (see :func:`code`) is a compile-time
+# constant (``numba.literally``: numba compiles one loop per value, each with one inlined copy
+# of _law; inlining several copies into one function made numba's compile time explode, 12 s
+# -> 9 min): -1 the general loop, 0..11 the fast loop of one kind of law (damage exponent,
+# form and zero threshold). g, sl, F, T, sl_n are the flat (C-order) views of gap, slip,
+# traction, tangent and new slip, indexed with constant strides.
+@njit(cache=True, inline="always")
+def _decode(code):
+    """code -> (fast, spec): the inverse of :func:`code` (constants once ``code`` is)."""
+    c = code if code >= 0 else 0
+    return code >= 0, (2.0 if c % 2 else 1.0, float(c // 4), float((c // 2) % 2))
+
+
 @njit(cache=True, error_model="numpy")
-def _run2_fast(g, coh, contact, friction, damage, rdt, kappa, dmg, sep, sl, diss,
-               F, T, kappa_n, dmg_n, sep_n, sl_n, diss_n):
+def _run2(code, g, coh, contact, friction, damage, rdt, kappa, dmg, sep, sl, diss,
+          F, T, kappa_n, dmg_n, sep_n, sl_n, diss_n):
+    literally(code)
+    fast, spec = _decode(code)
     for i in range(kappa.shape[0]):
         r = _law(g[2 * i], g[2 * i + 1], 0.0, kappa[i], dmg[i], sep[i], sl[i], 0.0,
-                 coh, contact, friction, damage, rdt, True, False)
+                 coh, contact, friction, damage, rdt, fast, spec, False)
         F[2 * i] = r[0]
         F[2 * i + 1] = r[1]
         T[4 * i] = r[3]
@@ -325,58 +350,14 @@ def _run2_fast(g, coh, contact, friction, damage, rdt, kappa, dmg, sep, sl, diss
 
 
 @njit(cache=True, error_model="numpy")
-def _run2_general(g, coh, contact, friction, damage, rdt, kappa, dmg, sep, sl, diss,
-                  F, T, kappa_n, dmg_n, sep_n, sl_n, diss_n):
-    for i in range(kappa.shape[0]):
-        r = _law(g[2 * i], g[2 * i + 1], 0.0, kappa[i], dmg[i], sep[i], sl[i], 0.0,
-                 coh, contact, friction, damage, rdt, False, False)
-        F[2 * i] = r[0]
-        F[2 * i + 1] = r[1]
-        T[4 * i] = r[3]
-        T[4 * i + 1] = r[4]
-        T[4 * i + 2] = r[6]
-        T[4 * i + 3] = r[7]
-        kappa_n[i] = r[12]
-        dmg_n[i] = r[13]
-        sep_n[i] = r[14]
-        if friction is not None:
-            sl_n[i] = r[15]
-        diss_n[i] = diss[i] + r[17]
-
-
-@njit(cache=True, error_model="numpy")
-def _run3_fast(g, coh, contact, friction, damage, rdt, kappa, dmg, sep, sl, diss,
-               F, T, kappa_n, dmg_n, sep_n, sl_n, diss_n):
+def _run3(code, g, coh, contact, friction, damage, rdt, kappa, dmg, sep, sl, diss,
+          F, T, kappa_n, dmg_n, sep_n, sl_n, diss_n):
+    literally(code)
+    fast, spec = _decode(code)
     for i in range(kappa.shape[0]):
         r = _law(g[3 * i], g[3 * i + 1], g[3 * i + 2], kappa[i], dmg[i], sep[i],
-                 sl[2 * i], sl[2 * i + 1], coh, contact, friction, damage, rdt, True, True)
-        F[3 * i] = r[0]
-        F[3 * i + 1] = r[1]
-        F[3 * i + 2] = r[2]
-        T[9 * i] = r[3]
-        T[9 * i + 1] = r[4]
-        T[9 * i + 2] = r[5]
-        T[9 * i + 3] = r[6]
-        T[9 * i + 4] = r[7]
-        T[9 * i + 5] = r[8]
-        T[9 * i + 6] = r[9]
-        T[9 * i + 7] = r[10]
-        T[9 * i + 8] = r[11]
-        kappa_n[i] = r[12]
-        dmg_n[i] = r[13]
-        sep_n[i] = r[14]
-        if friction is not None:
-            sl_n[2 * i] = r[15]
-            sl_n[2 * i + 1] = r[16]
-        diss_n[i] = diss[i] + r[17]
-
-
-@njit(cache=True, error_model="numpy")
-def _run3_general(g, coh, contact, friction, damage, rdt, kappa, dmg, sep, sl, diss,
-                  F, T, kappa_n, dmg_n, sep_n, sl_n, diss_n):
-    for i in range(kappa.shape[0]):
-        r = _law(g[3 * i], g[3 * i + 1], g[3 * i + 2], kappa[i], dmg[i], sep[i],
-                 sl[2 * i], sl[2 * i + 1], coh, contact, friction, damage, rdt, False, True)
+                 sl[2 * i], sl[2 * i + 1], coh, contact, friction, damage, rdt, fast, spec,
+                 True)
         F[3 * i] = r[0]
         F[3 * i + 1] = r[1]
         F[3 * i + 2] = r[2]
@@ -401,63 +382,94 @@ def _run3_general(g, coh, contact, friction, damage, rdt, kappa, dmg, sep, sl, d
 # Parallel versions: chunks of CHUNK points, each one call of the serial (vectorised) loop on
 # views that start at the chunk (a loop index from 0, see the module notes).
 @njit(cache=True, parallel=True, error_model="numpy")
-def _par2_fast(g, coh, contact, friction, damage, rdt, kappa, dmg, sep, sl, diss, F, T, kappa_n,
-              dmg_n, sep_n, sl_n, diss_n):
+def _par2(code, g, coh, contact, friction, damage, rdt, kappa, dmg, sep, sl, diss, F, T,
+          kappa_n, dmg_n, sep_n, sl_n, diss_n):
+    literally(code)
     n = kappa.shape[0]
     for b in prange((n + CHUNK - 1) // CHUNK):
         lo = b * CHUNK
         hi = min(n, lo + CHUNK)
-        _run2_fast(g[2 * lo:2 * hi], coh, contact, friction, damage, rdt, kappa[lo:hi],
-                  dmg[lo:hi], sep[lo:hi], sl[1 * lo:1 * hi], diss[lo:hi],
-                  F[2 * lo:2 * hi], T[4 * lo:4 * hi], kappa_n[lo:hi], dmg_n[lo:hi],
-                  sep_n[lo:hi], sl_n[1 * lo:1 * hi], diss_n[lo:hi])
+        _run2(code, g[2 * lo:2 * hi], coh, contact, friction, damage, rdt, kappa[lo:hi],
+              dmg[lo:hi], sep[lo:hi], sl[1 * lo:1 * hi], diss[lo:hi],
+              F[2 * lo:2 * hi], T[4 * lo:4 * hi], kappa_n[lo:hi], dmg_n[lo:hi],
+              sep_n[lo:hi], sl_n[1 * lo:1 * hi], diss_n[lo:hi])
 
 
 @njit(cache=True, parallel=True, error_model="numpy")
-def _par2_general(g, coh, contact, friction, damage, rdt, kappa, dmg, sep, sl, diss, F, T, kappa_n,
-              dmg_n, sep_n, sl_n, diss_n):
+def _par3(code, g, coh, contact, friction, damage, rdt, kappa, dmg, sep, sl, diss, F, T,
+          kappa_n, dmg_n, sep_n, sl_n, diss_n):
+    literally(code)
     n = kappa.shape[0]
     for b in prange((n + CHUNK - 1) // CHUNK):
         lo = b * CHUNK
         hi = min(n, lo + CHUNK)
-        _run2_general(g[2 * lo:2 * hi], coh, contact, friction, damage, rdt, kappa[lo:hi],
-                  dmg[lo:hi], sep[lo:hi], sl[1 * lo:1 * hi], diss[lo:hi],
-                  F[2 * lo:2 * hi], T[4 * lo:4 * hi], kappa_n[lo:hi], dmg_n[lo:hi],
-                  sep_n[lo:hi], sl_n[1 * lo:1 * hi], diss_n[lo:hi])
+        _run3(code, g[3 * lo:3 * hi], coh, contact, friction, damage, rdt, kappa[lo:hi],
+              dmg[lo:hi], sep[lo:hi], sl[2 * lo:2 * hi], diss[lo:hi],
+              F[3 * lo:3 * hi], T[9 * lo:9 * hi], kappa_n[lo:hi], dmg_n[lo:hi],
+              sep_n[lo:hi], sl_n[2 * lo:2 * hi], diss_n[lo:hi])
 
 
-@njit(cache=True, parallel=True, error_model="numpy")
-def _par3_fast(g, coh, contact, friction, damage, rdt, kappa, dmg, sep, sl, diss, F, T, kappa_n,
-              dmg_n, sep_n, sl_n, diss_n):
-    n = kappa.shape[0]
-    for b in prange((n + CHUNK - 1) // CHUNK):
-        lo = b * CHUNK
-        hi = min(n, lo + CHUNK)
-        _run3_fast(g[3 * lo:3 * hi], coh, contact, friction, damage, rdt, kappa[lo:hi],
-                  dmg[lo:hi], sep[lo:hi], sl[2 * lo:2 * hi], diss[lo:hi],
-                  F[3 * lo:3 * hi], T[9 * lo:9 * hi], kappa_n[lo:hi], dmg_n[lo:hi],
-                  sep_n[lo:hi], sl_n[2 * lo:2 * hi], diss_n[lo:hi])
+def code(contact, damage) -> int:
+    """The loop code of a law (``contact``/``damage``: the parameter tuples or None given to
+    the kernels): -1 if not :func:`is_fast` (the general loop), else
+    (alpha == 2) + 2 (F_th == 0) + 4 form, the damage values the fast loop compiles in as
+    constants (no damage counts as alpha = 1, F_th = 0, form 0: no extra loops).
+    Measured (BENCHMARKS.md, issue #15): with these three as run-time values the branches on
+    them split the vectorised loop into blocks whose registers spill (each alone costs ~13 %);
+    as constants the 2D loop runs ~1.4x faster, bit for bit the same numbers. The contact
+    exponent m would add loops for no gain (it only feeds selects, no branch)."""
+    if not is_fast(contact, damage):
+        return -1
+    if damage is None:
+        return 2
+    return int(damage[0] == 2.0) + 2 * int(damage[3] == 0.0) + 4 * int(damage[4])
 
 
-@njit(cache=True, parallel=True, error_model="numpy")
-def _par3_general(g, coh, contact, friction, damage, rdt, kappa, dmg, sep, sl, diss, F, T, kappa_n,
-              dmg_n, sep_n, sl_n, diss_n):
-    n = kappa.shape[0]
-    for b in prange((n + CHUNK - 1) // CHUNK):
-        lo = b * CHUNK
-        hi = min(n, lo + CHUNK)
-        _run3_general(g[3 * lo:3 * hi], coh, contact, friction, damage, rdt, kappa[lo:hi],
-                  dmg[lo:hi], sep[lo:hi], sl[2 * lo:2 * hi], diss[lo:hi],
-                  F[3 * lo:3 * hi], T[9 * lo:9 * hi], kappa_n[lo:hi], dmg_n[lo:hi],
-                  sep_n[lo:hi], sl_n[2 * lo:2 * hi], diss_n[lo:hi])
+# Entries called from Python, one per (code, dim, parallel): a compiled function with no
+# literal argument (a numba.literally function called from Python is re-typed at every call,
+# ~20 ms) that calls the loop with its code as a constant. A closure over an int only: numba's
+# disk cache keys it by the value.
+_ENTRIES = {}
 
 
-# (dim, fast) -> serial loop, parallel loop. All take flat C-order views of gap, slip,
-# traction, tangent and new slip (InterfaceLaw.evaluate passes them).
-SERIAL = {(2, True): _run2_fast, (2, False): _run2_general,
-          (3, True): _run3_fast, (3, False): _run3_general}
-PARALLEL = {(2, True): _par2_fast, (2, False): _par2_general,
-            (3, True): _par3_fast, (3, False): _par3_general}
+def loop(code, dim, parallel):
+    """The compiled loop (an entry) for a law's :func:`code`, its dim and serial/parallel; it
+    takes the arguments of _run2 after ``code``."""
+    key = (code, dim, parallel)
+    e = _ENTRIES.get(key)
+    if e is None:
+        e = _ENTRIES[key] = _entries(code)[(dim, parallel)]
+    return e
+
+
+def _entries(code):
+    @njit(cache=True, error_model="numpy")
+    def serial2(g, coh, contact, friction, damage, rdt, kappa, dmg, sep, sl, diss, F, T,
+                kappa_n, dmg_n, sep_n, sl_n, diss_n):
+        _run2(code, g, coh, contact, friction, damage, rdt, kappa, dmg, sep, sl, diss, F, T,
+              kappa_n, dmg_n, sep_n, sl_n, diss_n)
+
+    @njit(cache=True, error_model="numpy")
+    def serial3(g, coh, contact, friction, damage, rdt, kappa, dmg, sep, sl, diss, F, T,
+                kappa_n, dmg_n, sep_n, sl_n, diss_n):
+        _run3(code, g, coh, contact, friction, damage, rdt, kappa, dmg, sep, sl, diss, F, T,
+              kappa_n, dmg_n, sep_n, sl_n, diss_n)
+
+    @njit(cache=True, error_model="numpy")
+    def parallel2(g, coh, contact, friction, damage, rdt, kappa, dmg, sep, sl, diss, F, T,
+                  kappa_n, dmg_n, sep_n, sl_n, diss_n):
+        _par2(code, g, coh, contact, friction, damage, rdt, kappa, dmg, sep, sl, diss, F, T,
+              kappa_n, dmg_n, sep_n, sl_n, diss_n)
+
+    @njit(cache=True, error_model="numpy")
+    def parallel3(g, coh, contact, friction, damage, rdt, kappa, dmg, sep, sl, diss, F, T,
+                  kappa_n, dmg_n, sep_n, sl_n, diss_n):
+        _par3(code, g, coh, contact, friction, damage, rdt, kappa, dmg, sep, sl, diss, F, T,
+              kappa_n, dmg_n, sep_n, sl_n, diss_n)
+
+    return {(2, False): serial2, (3, False): serial3, (2, True): parallel2,
+            (3, True): parallel3}
+
 
 @njit(cache=True, error_model="numpy")
 def evaluate_serial(gap, coh, contact, friction, damage, rdt, kappa, dmg, sep, slip, diss,
@@ -471,7 +483,7 @@ def evaluate_serial(gap, coh, contact, friction, damage, rdt, kappa, dmg, sep, s
     for i in range(gap.shape[0]):
         r = _law(gap[i, 0], gap[i, 1], gap[i, 2] if three else 0.0,
                  kappa[i], dmg[i], sep[i], slip[i, 0], slip[i, 1] if three else 0.0,
-                 coh, contact, friction, damage, rdt, False, three)
+                 coh, contact, friction, damage, rdt, False, _NO_SPEC, three)
         F[i, 0] = r[0]
         F[i, 1] = r[1]
         T[i, 0, 0] = r[3]

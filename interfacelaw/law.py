@@ -116,6 +116,8 @@ class InterfaceLaw:
         self._dmg = None if damage is None else tuple(map(float, damage.as_array(cohesive)))
         # the kernel specialisation: exponents 0, 1, 2 only -> no pow call, vectorised loop
         self._fast = _kernels.is_fast(self._con, self._dmg)
+        # the loop specialisation of this kind of law (exponents, damage form, threshold)
+        self._code = _kernels.code(self._con, self._dmg)
         self._parts = (contact is None, friction is None, damage is None)
 
     def __repr__(self):
@@ -220,8 +222,7 @@ class InterfaceLaw:
             if self.friction is None:
                 new.slip[...] = state.slip
         par = self.parallel if self.parallel is not None else n >= PARALLEL_MIN_POINTS
-        key = (dim, self._fast)
-        kern = (_kernels.PARALLEL if par else _kernels.SERIAL)[key]
+        kern = _kernels.loop(self._code, dim, par)
         # the kernels index flat C-order views (vectorisation): copy any strided input
         c = _flat
         _kernels.call(kern, self._parts, c(gap), self._coh, self._con, self._fri, self._dmg,

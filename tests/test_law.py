@@ -433,6 +433,32 @@ def test_parallel_equals_serial_and_state_not_mutated_and_out_buffers():
     assert F3 is out[0] and np.array_equal(F3, F1) and np.array_equal(n3.kappa, n1.kappa)
 
 
+def test_fast_loop_code_carries_the_law_damage_values():
+    """The fast loop is compiled per kind of law with (alpha, form, F_th = 0) as constants
+    (_kernels.code/_decode, issue #15): they must be the law's own values. Pure Python (no
+    compile); the compiled specialisations are compared with the generic loop of the C ABI
+    (runtime parameters) along random walks in test_cabi.py."""
+    from interfacelaw import _kernels
+    coh = COH2
+    seen = set()
+    for alpha in (1.0, 2.0, 1.5):
+        for F_th in (0.0, 0.3 * coh.sigma_max):
+            for form in ("paper", "objective", "rate"):
+                for beta in (0.0, 1.0):
+                    law = full_law(coh, "rough", alpha=alpha, F_th=F_th, form=form, beta=beta)
+                    c = _kernels.code(law._con, law._dmg)
+                    if alpha == 1.5 or beta != 0.0:
+                        assert c == -1 and not law._fast      # pow calls: the general loop
+                        continue
+                    assert law._fast and 0 <= c < 12
+                    fast, spec = _kernels._decode.py_func(c)
+                    a, b_, g, fth, code = law._dmg
+                    assert fast and spec == (a, code, float(fth == 0.0 and b_ == 0.0))
+                    seen.add(c)
+    assert len(seen) == 10                                    # rate with alpha 1 = paper
+    assert _kernels.code(None, None) == 2 and _kernels._decode.py_func(-1)[0] is False
+
+
 # ---------------------------------------------------------------------------------------------
 # extreme inputs: finite everywhere
 # ---------------------------------------------------------------------------------------------
