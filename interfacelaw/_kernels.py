@@ -290,7 +290,8 @@ def _law(gN, gT1, gT2, ko, Do, sepo, s1, s2, coh, contact, friction, damage, rdt
                 T11 += CT
                 T22 += CT
             else:                                           # slip
-                nn1 = tr1 / trm
+                # 2D: tr1/|tr1| is +-1 exactly (|tr1| = trm > lim >= 0): no division
+                nn1 = tr1 / trm if three else (1.0 if tr1 > 0.0 else -1.0)
                 nn2 = tr2 / trm if three else 0.0
                 F1 += lim * nn1
                 F2 += lim * nn2
@@ -303,11 +304,14 @@ def _law(gN, gT1, gT2, ko, Do, sepo, s1, s2, coh, contact, friction, damage, rdt
                     dphi += lim * (nn1 * (n1 - s1))
                 T10 += -f * dFNc0 * nn1
                 T20 += -f * dFNc0 * nn2
-                rr = lim * CT / trm
-                T11 += rr * (1.0 - nn1 * nn1)
-                T12 += -rr * nn1 * nn2
-                T21 += -rr * nn2 * nn1
-                T22 += rr * (1.0 - nn2 * nn2)
+                if three:
+                    rr = lim * CT / trm
+                    T11 += rr * (1.0 - nn1 * nn1)
+                    T12 += -rr * nn1 * nn2
+                    T21 += -rr * nn2 * nn1
+                    T22 += rr * (1.0 - nn2 * nn2)
+                else:  # rr (1 - nn1^2) = +0 (rr >= 0): the sum kept, a -0 still becomes +0
+                    T11 += 0.0
         else:                                               # bonded or open: spring unloaded
             n1 = gT1
             n2 = gT2
