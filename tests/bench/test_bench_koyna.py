@@ -122,7 +122,7 @@ def test_bench_koyna_02_step(benchmark, request, kind):
     steps with an elastic-branch interface; the ratio of the two medians is the per-step cost
     of the interface nonlinearity (verification/bench_koyna.py --parts 5 times whole runs)."""
     sc0, m, a0a1 = _setup(request)
-    sc = bk.scene(["ground_motion.scale=0.2"] + ([] if _enabled(request) else TINY))
+    sc = bk.scene(["ground_motion.scale=0.2", "reservoir.model=none"] + ([] if _enabled(request) else TINY))
     law = bk.scene_law(sc) if kind == "nonlinear" else bk.linear_law(sc)
     warm = 20 if _enabled(request) else 1
     s, fk = _warm_solver(sc, m, a0a1, law, "condensed", warm)
