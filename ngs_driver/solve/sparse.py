@@ -19,10 +19,7 @@ def _lu_solve(Lp, Li, Lx, Up, Ui, Ux, perm_r, perm_c, b, x, y):
     """Solve A x = b for a (n, k) C-contiguous b: y = Pr b; L z = y; U w = z; x = Pc w
     (general LU: U stored by columns, diagonal last)."""
     n, k = b.shape
-    for i in range(n):
-        pi = perm_r[i]
-        for r in range(k):
-            y[pi, r] = b[i, r]
+    _scatter_rows(perm_r, b, y)
     _fwd_mat(Lp, Li, Lx, y)
     for j in range(n - 1, -1, -1):
         d = Ux[Up[j + 1] - 1]
@@ -33,9 +30,24 @@ def _lu_solve(Lp, Li, Lx, Up, Ui, Ux, perm_r, perm_c, b, x, y):
             uv = Ux[q]
             for r in range(k):
                 y[i, r] -= uv * y[j, r]
-    for i in range(n):
-        pc = perm_c[i]
-        for r in range(k):
+    _gather_rows(perm_c, y, x)
+
+
+@njit(cache=True)
+def _scatter_rows(perm, b, y):
+    """y[perm[i]] = b[i] (rows of (n, k) arrays): into the permuted space."""
+    for i in range(b.shape[0]):
+        pi = perm[i]
+        for r in range(b.shape[1]):
+            y[pi, r] = b[i, r]
+
+
+@njit(cache=True)
+def _gather_rows(perm, y, x):
+    """x[i] = y[perm[i]] (rows of (n, k) arrays): back from the permuted space."""
+    for i in range(x.shape[0]):
+        pc = perm[i]
+        for r in range(x.shape[1]):
             x[i, r] = y[pc, r]
 
 
@@ -60,10 +72,7 @@ def _ldl_solve(Lp, Li, Lx, Rp, Ri, Rx, D, perm, b, x, y):
     L^T w = D^-1 z (dot products down the columns of L, read from the reversed copy
     (Rp, Ri, Rx), see ``_reversed``); x = P^T w."""
     n, k = b.shape
-    for i in range(n):
-        pi = perm[i]
-        for r in range(k):
-            y[pi, r] = b[i, r]
+    _scatter_rows(perm, b, y)
     _fwd_mat(Lp, Li, Lx, y)
     for kk in range(n):
         j = n - 1 - kk
@@ -75,10 +84,7 @@ def _ldl_solve(Lp, Li, Lx, Rp, Ri, Rx, D, perm, b, x, y):
             lv = Rx[q]
             for r in range(k):
                 y[j, r] -= lv * y[i, r]
-    for i in range(n):
-        pc = perm[i]
-        for r in range(k):
-            x[i, r] = y[pc, r]
+    _gather_rows(perm, y, x)
 
 
 @njit(cache=True)
