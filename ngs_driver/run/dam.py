@@ -329,8 +329,7 @@ def _run(scene, outdir, resume, progress, max_steps, model, plots, log, freeze) 
                 checkpoint(k, dyn_wall_before + time.perf_counter() - t_dyn0)
                 # a run resumed here starts with a fresh solver: the uninterrupted run drops
                 # what the solver carries besides the committed state (a reused Jacobian)
-                if hasattr(solver, "forget_jacobian"):
-                    solver.forget_jacobian()
+                solver.forget_jacobian()
             if max_steps is not None and steps_this_call >= max_steps and k < n_steps:
                 raise RunInterrupted(f"stopped after {steps_this_call} steps (step {k}) by "
                                      "max_steps")
