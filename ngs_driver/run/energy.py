@@ -30,6 +30,8 @@ frictional contact stores 1/2 t_T^2 / C_T in its stick spring instead of 1/2 t_T
 from __future__ import annotations
 
 import numpy as np
+import scipy.sparse as sp
+from numba import njit
 
 __all__ = ["EnergyBudget", "stored_energy", "ENERGY_KEYS"]
 
@@ -63,6 +65,91 @@ def _symmetric(A) -> bool:
     return d.nnz == 0 or float(d.max()) <= 1e-13 * float(abs(A).max())
 
 
+class FusedKM:
+    """K u and M v in one pass over the union of their sparsity patterns (issue #15).
+
+    Both value arrays are laid out on one CSR pattern (zeros where a matrix has no entry), so
+    the row loop reads the pattern once for both products. Each row is summed in the stored
+    column order, like scipy's ``csr_matvec``: for canonical K and M (sorted, no duplicates)
+    the products are bitwise scipy's ``K @ u`` and ``M @ v`` (an inserted zero adds +-0, which
+    changes no partial sum; the sum starts at +0 as scipy's does). Indices are unsigned (no
+    negative-index wraparound test in the compiled loop: ~1.5x faster than int32)."""
+
+    def __init__(self, K, M):
+        K, M = _canonical(K), _canonical(M)
+        if K.shape != M.shape or K.shape[0] != K.shape[1]:
+            raise ValueError(f"K {K.shape} and M {M.shape}: square matrices of one shape")
+        n = K.shape[0]
+        kk, km = _keys(K), _keys(M)
+        keys = np.union1d(kk, km)                   # sorted: row-major, columns ascending
+        rows = keys // n
+        self.n = n
+        self.indptr = np.searchsorted(rows, np.arange(n + 1)).astype(np.uint64)
+        self.indices = (keys - rows * n).astype(np.uint32)
+        self.Kx = np.zeros(keys.size)
+        self.Kx[np.searchsorted(keys, kk)] = K.data
+        self.Mx = np.zeros(keys.size)
+        self.Mx[np.searchsorted(keys, km)] = M.data
+
+    def products(self, u, v):
+        """(M v, K u) as new arrays."""
+        Ku, Mv = np.empty(self.n), np.empty(self.n)
+        _km_products(self.indptr, self.indices, self.Kx, self.Mx, _vec(u, self.n),
+                     _vec(v, self.n), Ku, Mv)
+        return Mv, Ku
+
+
+def _canonical(A):
+    A = sp.csr_matrix(A)
+    if not A.has_canonical_format:
+        A = A.copy()
+        A.sum_duplicates()                         # sorted indices, duplicates summed
+    return A
+
+
+def _keys(A):
+    """row * n + column of every stored entry, in the stored (row-major) order."""
+    rows = np.repeat(np.arange(A.shape[0], dtype=np.int64), np.diff(A.indptr))
+    return rows * A.shape[1] + A.indices.astype(np.int64)
+
+
+def _vec(x, n):
+    x = np.ascontiguousarray(x, dtype=np.float64)
+    if x.shape != (n,):
+        raise ValueError(f"vector of shape {x.shape}, expected ({n},)")
+    return x
+
+
+@njit(cache=True)
+def _km_products(indptr, indices, Kx, Mx, u, v, Ku, Mv):
+    for i in range(Ku.size):
+        a = 0.0
+        b = 0.0
+        for jj in range(indptr[i], indptr[i + 1]):
+            j = indices[jj]
+            a += Kx[jj] * u[j]
+            b += Mx[jj] * v[j]
+        Ku[i] = a
+        Mv[i] = b
+
+
+@njit(cache=True)
+def _km_step(indptr, indices, Kx, Mx, u, v, f, u0, v0, f0, Ku0, Mv0, Ku, Mv, du, fs, ms, vs, kd):
+    """One step of the budget: Ku, Mv (``_km_products``), then the vectors its dot products
+    need, du = u - u0, fs = f0 + f, ms = Mv0 + Mv, vs = v0 + v, kd = Ku - Ku0 (numpy's
+    elementwise operations, in one loop), and u0, v0, f0 <- u, v, f."""
+    _km_products(indptr, indices, Kx, Mx, u, v, Ku, Mv)
+    for i in range(Ku.size):
+        du[i] = u[i] - u0[i]
+        fs[i] = f0[i] + f[i]
+        ms[i] = Mv0[i] + Mv[i]
+        vs[i] = v0[i] + v[i]
+        kd[i] = Ku[i] - Ku0[i]
+        u0[i] = u[i]
+        v0[i] = v[i]
+        f0[i] = f[i]
+
+
 class EnergyBudget:
     """Accumulates the budget; ``start`` at the static state, ``step`` after each step.
 
@@ -82,10 +169,14 @@ class EnergyBudget:
         if C is not None and rayleigh is not None and _symmetric(K) and _symmetric(M):
             self._split = (float(rayleigh[0]), float(rayleigh[1]), C_extra)
         self._prods = None                # (M v, K u) of the previous state
+        self._km = FusedKM(K, M)
+        n = self._km.n
+        self._next = (np.empty(n), np.empty(n))          # buffers of the next (M v, K u)
+        self._work = np.empty((5, n))                    # du, fs, ms, vs, kd of a step
 
     def _levels(self, u, v, t, g, state, Mv=None, Ku=None):
         if Mv is None:
-            Mv, Ku = self.M @ v, self.K @ u
+            Mv, Ku = self._km.products(u, v)
         stored, diss = self._joint_levels(t, g, state)
         return (0.5 * float(v @ Mv), 0.5 * float(u @ Ku), stored, diss)
 
@@ -103,8 +194,9 @@ class EnergyBudget:
         return stored, diss
 
     def start(self, u, v, f, t, g, state):
-        self._prev = (u.copy(), v.copy(), f.copy())
-        self._prods = (self.M @ v, self.K @ u)
+        n = self._km.n
+        self._prev = tuple(_vec(x, n).copy() for x in (u, v, f))
+        self._prods = self._km.products(u, v)
         self._ref = self._levels(u, v, t, g, state, *self._prods)
         self.W_ext = 0.0
         self.E_damp = 0.0
@@ -125,22 +217,25 @@ class EnergyBudget:
                                            - stored_energy(new, t_new, gg, st)))
 
     def step(self, u, v, f, t, g, state) -> dict:
-        u0, v0, f0 = self._prev
-        du = u - u0
-        self.W_ext += 0.5 * float(du @ (f0 + f))
-        Mv, Ku = self.M @ v, self.K @ u
+        u0, v0, f0 = self._prev                 # updated in place to u, v, f by the kernel
+        Mv0, Ku0 = self._prods
+        Mv, Ku = self._next
+        n = self._km.n
+        u, v, f = _vec(u, n), _vec(v, n), _vec(f, n)
+        du, fs, ms, vs, kd = self._work
+        km = self._km
+        _km_step(km.indptr, km.indices, km.Kx, km.Mx, u, v, f, u0, v0, f0, Ku0, Mv0, Ku, Mv,
+                 du, fs, ms, vs, kd)
+        self.W_ext += 0.5 * float(du @ fs)
         if self._split is not None:
             a0, a1, C_extra = self._split
-            Mv0, Ku0 = self._prods
-            vs = v0 + v
-            work = a0 * float(du @ (Mv0 + Mv)) + a1 * float(vs @ (Ku - Ku0))
+            work = a0 * float(du @ ms) + a1 * float(vs @ kd)
             if C_extra is not None:
                 work += float(du @ (C_extra @ vs))
             self.E_damp += 0.5 * work
         elif self.C is not None:
-            self.E_damp += 0.5 * float(du @ (self.C @ (v0 + v)))
-        self._prev = (u.copy(), v.copy(), f.copy())
-        self._prods = (Mv, Ku)
+            self.E_damp += 0.5 * float(du @ (self.C @ vs))
+        self._prods, self._next = (Mv, Ku), (Mv0, Ku0)     # the old products' buffers reused
         kin, bulk, stored, diss = self._levels(u, v, t, g, state, Mv, Ku)
         k0, b0, s0, d0 = self._ref
         row = {"W_ext": self.W_ext, "E_kin": kin - k0, "E_bulk": bulk - b0,
@@ -163,17 +258,18 @@ class EnergyBudget:
         """What a checkpoint must keep to continue the budget bitwise."""
         u0, v0, f0 = self._prev
         k0, b0, s0, d0 = self._ref
-        return {"energy_prev_u": u0, "energy_prev_v": v0, "energy_prev_f": f0,
+        return {"energy_prev_u": u0.copy(), "energy_prev_v": v0.copy(),
+                "energy_prev_f": f0.copy(),
                 "energy_ref": np.array([k0, b0, *s0, *d0]),
                 "energy_acc": np.array([self.W_ext, self.E_damp, self.E_scaling])}
 
     def restore(self, arrs):
-        self._prev = (arrs["energy_prev_u"].copy(), arrs["energy_prev_v"].copy(),
-                      arrs["energy_prev_f"].copy())
+        n = self._km.n
+        self._prev = tuple(_vec(arrs[f"energy_prev_{x}"], n).copy() for x in "uvf")
         r = arrs["energy_ref"]
         n = len(self.joints.names)
         self._ref = (float(r[0]), float(r[1]), [float(x) for x in r[2:2 + n]],
                      [float(x) for x in r[2 + n:2 + 2 * n]])
         self.W_ext, self.E_damp, self.E_scaling = (float(x) for x in arrs["energy_acc"])
         u0, v0, _ = self._prev              # the products the run had (bitwise the same)
-        self._prods = (self.M @ v0, self.K @ u0)
+        self._prods = self._km.products(u0, v0)
