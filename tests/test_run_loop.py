@@ -133,3 +133,106 @@ def test_history_buffer_grows_and_round_trips():
     h2.append(step=7, t=0.7, x=1.0)
     assert len(h2) == 8 and np.array_equal(h2.arrays()["t"][:7], A["t"])
     assert History(keys).arrays()["t"].shape == (0,)
+
+
+def test_numpy_pairwise_sum_replica():
+    """The scan's sums are numpy's (pairwise, 8 accumulators, blocks of 128) bit for bit:
+    lengths across every branch, magnitudes over 10 decades (a sequential sum differs)."""
+    from ngs_driver.run.joints import np_sum
+    rng = np.random.default_rng(2)
+    seq_differs = 0
+    for n in list(range(0, 300)) + [511, 512, 513, 1000, 4099]:
+        a = rng.standard_normal(n) * 10.0 ** rng.integers(-5, 5, n)
+        assert np_sum(a) == float(np.sum(a)), n
+        s = 0.0
+        for x in a:
+            s += x
+        seq_differs += s != float(np.sum(a))
+    assert seq_differs > 50
+
+
+def _reference_measures(js, state, gap, t, p, w):
+    """The measures as computed before the scan (numpy, per joint): joints, safety, energy."""
+    from ngs_driver.run.energy import stored_energy
+    from ngs_driver.run.joints import debonded_measures
+    from ngs_driver.run.safety import FS_CAP
+    out = {}
+    deb = np.asarray(state.debonded, bool)
+    for name, sl, law in zip(js.names, js.slices, js.laws):
+        ws = w[sl]
+        total, upstream, ndeb = debonded_measures(deb[sl], ws)
+        d, g = state.damage[sl], gap[sl]
+        out.update({f"{name}_crack_length": total, f"{name}_crack_length_upstream": upstream,
+                    f"{name}_n_debonded": ndeb, f"{name}_max_D": float(d.max()),
+                    f"{name}_D_upstream": float(d[0]), f"{name}_opening_upstream": float(g[0, 0]),
+                    f"{name}_slip_mean": float(np.dot(ws, g[:, 1]) / ws.sum())})
+        N = -float(np.dot(ws, t[sl, 0]))
+        T = abs(float(np.dot(ws, t[sl, 1])))
+        bonded = ~deb[sl]
+        c = law.cohesive
+        soft = np.clip((1.0 - state.kappa[sl]) / (1.0 - c.lambda_max), 0.0, 1.0)
+        cp = (1.0 - d) * c.tau_max * (c.l_Nc / c.l_Tc) * soft
+        C = float(np.dot(ws[bonded], cp[bonded]))
+        f = 0.0 if law.friction is None else float(law.friction.f)
+        num = f * max(N, 0.0) + C
+        out.update({f"{name}_normal_force": N, f"{name}_shear_force": T,
+                    f"{name}_uplift_force": float(np.dot(ws, p[sl])),
+                    f"{name}_bonded_length": float(ws[bonded].sum()),
+                    f"{name}_sliding_fs": num / T if T > num / FS_CAP else FS_CAP,
+                    f"{name}_stored": float(np.dot(ws, stored_energy(law, t[sl], g, state.take(sl))))})
+    return out
+
+
+def test_joint_scan_gives_the_numpy_measures_bit_for_bit():
+    """The step's measures from one compiled pass (JointScan) are the numbers of the numpy
+    code they replace, bit for bit: two joints (the base with friction), random damage,
+    debonded runs from the upstream end, points in compression; and the size-scale update
+    from the scan's crack length is the update from the state."""
+    from ngs_driver.run.safety import Safety
+    sc = load_scene("generic_gravity", ["interface.ratio_lTc_lNc=1.3"])   # l_Nc/l_Tc != 1
+    rng = np.random.default_rng(7)
+    n1, n2 = 137, 64
+    n = n1 + n2
+    w = rng.random(n) * 0.5 + 0.01
+    iface = SimpleNamespace(parts={"base": slice(0, n1), "lift45": slice(n1, n)},
+                            x=np.r_[np.linspace(0, 70, n1), np.linspace(3, 40, n2)],
+                            y=np.r_[np.zeros(n1), np.full(n2, 45.0)], w=w)
+    js = JointSet(sc, iface)
+    assert js.laws[0].friction is not None
+    assert js.law_params()[0, 1] != 1.0
+    saf = Safety.__new__(Safety)               # only its measures (no model needed)
+    saf.joints = js
+    p = rng.random(n) * 1e5
+    law = js.laws[0]
+    checked_friction = False
+    for case in range(30):
+        st = law.initial_state(n)
+        st.kappa[:] = rng.random(n) * 1.5
+        st.damage[:] = np.where(rng.random(n) < 0.3, 1.0, rng.random(n))
+        m = rng.integers(0, 40)
+        st.kappa[:m] = 1.2                      # a crack from the heel
+        st.kappa[n1:n1 + m // 2] = 1.1
+        if case == 0:
+            st.kappa[:] = 0.0
+            st.damage[:] = 0.0
+        gap = rng.standard_normal((n, 2)) * 1e-4
+        t = rng.standard_normal((n, 2)) * 1e6
+        ref = _reference_measures(js, st, gap, t, p, w)
+        scan = js.scan(st, gap, t)
+        got = js.measures(st, gap, scan)
+        for name, sl in zip(js.names, js.slices):
+            for k in ("crack_length", "crack_length_upstream", "n_debonded", "max_D",
+                      "D_upstream", "opening_upstream", "slip_mean"):
+                assert got[f"{name}_{k}"] == ref[f"{name}_{k}"], (case, name, k)
+            m_s = saf.joint_measures(t, st, p, scan)[name]
+            for k in ("normal_force", "shear_force", "uplift_force", "bonded_length",
+                      "sliding_fs"):
+                assert m_s[k] == ref[f"{name}_{k}"], (case, name, k)
+            assert float(np.dot(w[sl], scan.stored[sl])) == ref[f"{name}_stored"]
+        deb = st.debonded
+        checked_friction |= bool(np.any(deb[:n1] & (t[:n1, 0] < 0)))
+        # the update from the scan = the update from the state
+        a, b = JointSet(sc, iface), JointSet(sc, iface)
+        assert a.update(st, scan) == b.update(st)
+        assert a.sizes == b.sizes and a.laws[0].cohesive == b.laws[0].cohesive
+    assert checked_friction

@@ -163,9 +163,9 @@ def _run(scene, outdir, resume, progress, max_steps, model, plots, log, freeze) 
     if plots and scene.output.vtk_every > 0:
         vtk = outvtk.VTKWriter(model, out / "vtk" / "dam", joints)
 
-    def update_laws(state, book_energy=True):
+    def update_laws(state, book_energy=True, scan=None):
         old = list(joints.laws)
-        if joints.update(state):
+        if joints.update(state, scan):
             solver.set_law(joints.solver_law())
             if book_energy:
                 energy.law_update(old, solver.g, state)
@@ -284,8 +284,10 @@ def _run(scene, outdir, resume, progress, max_steps, model, plots, log, freeze) 
             st = solver.state
             if rres is not None:
                 rres.record(k, times[k])
-            jm = joints.measures(st, solver.g)
-            en = energy.step(solver.u, solver.v, f_k, solver.t, solver.g, st)
+            # the per-point work of the joints', energy's and safety's measures, once
+            scan = joints.scan(st, solver.g, solver.t)
+            jm = joints.measures(st, solver.g, scan)
+            en = energy.step(solver.u, solver.v, f_k, solver.t, solver.g, st, scan)
             hist.append(step=k, t=times[k], crest_ux=solver.u[cx], crest_uy=solver.u[cy],
                         iterations=rep.iterations, iterations_failed=rep.iterations_failed,
                         cuts=rep.cuts, substeps=len(rep.dts), n_active=rep.n_active,
@@ -295,8 +297,8 @@ def _run(scene, outdir, resume, progress, max_steps, model, plots, log, freeze) 
                         max_D=jm["base_max_D"], D_heel=float(st.damage[0]),
                         kappa_heel=float(st.kappa[0]), size_b=jm["base_size_b"],
                         sigma_max=jm["base_sigma_max"], wall=rep.wall, **jm, **en,
-                        **safety.step_measures(solver.t, st))
-            update_laws(st)                  # size-scale update for the next step
+                        **safety.step_measures(solver.t, st, scan))
+            update_laws(st, scan=scan)       # size-scale update for the next step
             if k in snap_steps:
                 snapshot(snaps, k, times[k])
             if vtk is not None and k % scene.output.vtk_every == 0:

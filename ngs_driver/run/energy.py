@@ -174,18 +174,28 @@ class EnergyBudget:
         self._next = (np.empty(n), np.empty(n))          # buffers of the next (M v, K u)
         self._work = np.empty((5, n))                    # du, fs, ms, vs, kd of a step
 
-    def _levels(self, u, v, t, g, state, Mv=None, Ku=None):
+    def _levels(self, u, v, t, g, state, Mv=None, Ku=None, scan=None):
         if Mv is None:
             Mv, Ku = self._km.products(u, v)
-        stored, diss = self._joint_levels(t, g, state)
+        stored, diss = self._joint_levels(t, g, state, scan)
         return (0.5 * float(v @ Mv), 0.5 * float(u @ Ku), stored, diss)
 
-    def _joint_levels(self, t, g, state):
+    def _joint_levels(self, t, g, state, scan=None):
+        """Per joint: sum of w x the stored energy (``stored_energy``; from the step's
+        ``JointScan`` when the joints can form one) and of w x the law's dissipated energy."""
+        if scan is None and hasattr(self.joints, "scan"):
+            scan = self.joints.scan(state, g, t)
+        dissipated = state.dissipated
+        stored, diss = [], []
+        if scan is not None:
+            for sl in self.joints.slices:
+                w = self.w[sl]
+                stored.append(float(np.dot(w, scan.stored[sl])))
+                diss.append(float(np.dot(w, dissipated[sl])))
+            return stored, diss
         laws = self.joints.laws
         deb = (np.asarray(state.debonded, bool)
                if any(law.friction is not None for law in laws) else None)
-        dissipated = state.dissipated
-        stored, diss = [], []
         for law, sl in zip(laws, self.joints.slices):
             w = self.w[sl]
             stored.append(float(np.dot(w, _stored_energy(law, t[sl], g[sl],
@@ -216,7 +226,9 @@ class EnergyBudget:
             self.E_scaling += float(np.dot(self.w[sl], stored_energy(old, t_old, gg, st)
                                            - stored_energy(new, t_new, gg, st)))
 
-    def step(self, u, v, f, t, g, state) -> dict:
+    def step(self, u, v, f, t, g, state, scan=None) -> dict:
+        """Book the step to the committed (u, v, f, t, g, state); scan: the ``JointScan`` of
+        (state, g, t) if the caller has it."""
         u0, v0, f0 = self._prev                 # updated in place to u, v, f by the kernel
         Mv0, Ku0 = self._prods
         Mv, Ku = self._next
@@ -236,7 +248,7 @@ class EnergyBudget:
         elif self.C is not None:
             self.E_damp += 0.5 * float(du @ (self.C @ vs))
         self._prods, self._next = (Mv, Ku), (Mv0, Ku0)     # the old products' buffers reused
-        kin, bulk, stored, diss = self._levels(u, v, t, g, state, Mv, Ku)
+        kin, bulk, stored, diss = self._levels(u, v, t, g, state, Mv, Ku, scan)
         k0, b0, s0, d0 = self._ref
         row = {"W_ext": self.W_ext, "E_kin": kin - k0, "E_bulk": bulk - b0,
                "E_damp": self.E_damp}

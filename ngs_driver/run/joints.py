@@ -8,11 +8,12 @@ interface).
 from __future__ import annotations
 
 import numpy as np
+from numba import njit
 
 from ..setup import build_law, build_scaling
 from ..solve.joint_laws import JointLaws
 
-__all__ = ["JointSet", "crack_measures", "debonded_measures", "JOINT_KEYS"]
+__all__ = ["JointSet", "JointScan", "crack_measures", "debonded_measures", "JOINT_KEYS"]
 
 # per-joint history columns, prefixed "<joint>_" in timeseries.csv
 JOINT_KEYS = ("crack_length", "crack_length_upstream", "n_debonded", "max_D", "D_upstream",
@@ -37,6 +38,130 @@ def debonded_measures(deb, w) -> tuple[float, float, int]:
     return total, heel, int(deb.sum())
 
 
+@njit(cache=True)
+def _pairwise_sum(a, i0, n):
+    """numpy's sum of a[i0:i0 + n] (``add.reduce`` of a contiguous float64 array: the
+    pairwise sum of numpy/_core/src/umath/loops_utils.h, 8 accumulators in blocks of <= 128,
+    started from the identity 0.0), the same bits (tests/test_run_loop.py)."""
+    if n < 8:
+        res = 0.0
+        for i in range(i0, i0 + n):
+            res += a[i]
+        return res
+    if n <= 128:
+        r0, r1, r2, r3 = a[i0], a[i0 + 1], a[i0 + 2], a[i0 + 3]
+        r4, r5, r6, r7 = a[i0 + 4], a[i0 + 5], a[i0 + 6], a[i0 + 7]
+        m = n - n % 8
+        i = 8
+        while i < m:
+            j = i0 + i
+            r0 += a[j]
+            r1 += a[j + 1]
+            r2 += a[j + 2]
+            r3 += a[j + 3]
+            r4 += a[j + 4]
+            r5 += a[j + 5]
+            r6 += a[j + 6]
+            r7 += a[j + 7]
+            i += 8
+        res = ((r0 + r1) + (r2 + r3)) + ((r4 + r5) + (r6 + r7))
+        while i < n:
+            res += a[i0 + i]
+            i += 1
+        return res
+    n2 = n // 2
+    n2 -= n2 % 8
+    return _pairwise_sum(a, i0, n2) + _pairwise_sum(a, i0 + n2, n - n2)
+
+
+def np_sum(a) -> float:
+    """``float(np.sum(a))`` of a 1-D float64 array by ``_pairwise_sum`` (tests)."""
+    a = np.ascontiguousarray(a, dtype=np.float64)
+    return 0.0 + _pairwise_sum(a, 0, a.size)
+
+
+@njit(cache=True)
+def _scan(starts, stops, par, w, kappa, damage, t, g, wd, wb, cpb, stored, ints, flts):
+    """The per-point work of a step's joint measures, all joints in one call (``JointScan``).
+
+    Joint i has points starts[i]:stops[i] and law parameters par[i] = (tau_max,
+    l_Nc / l_Tc, lambda_max, friction 0/1, C_T). Debonded: kappa >= 1 or D >= 1 (the
+    state's ``debonded``). Per joint: ints[i] = (n debonded, n bonded), flts[i] = (sum of w
+    over debonded points, contiguous debonded length from the upstream end, max D, sum of
+    w over bonded points) with numpy's sums; wb, cpb (from starts[i] on) the bonded points'
+    w and cohesive shear strength (1 - D) tau_max (l_Nc/l_Tc) clip((1 - kappa)/(1 -
+    lambda_max), 0, 1); stored the recoverable energy per point (energy.stored_energy). The
+    operations are numpy's of the functions they replace, in the same order (same bits)."""
+    for i in range(starts.size):
+        s0, s1 = starts[i], stops[i]
+        tau, ratio, lam1, fric, ct = par[i, 0], par[i, 1], 1.0 - par[i, 2], par[i, 3], par[i, 4]
+        nd = 0
+        nb = 0
+        heel = s1 - s0                       # contiguous debonded points from the upstream end
+        dmax = damage[s0]
+        for p in range(s0, s1):
+            d = damage[p]
+            if dmax == dmax and not d <= dmax:      # np.max: NaN propagates
+                dmax = d
+            deb = kappa[p] >= 1.0 or d >= 1.0
+            e = 0.5 * t[p, 0] * g[p, 0]
+            tang = 0.5 * t[p, 1] * g[p, 1]
+            if deb:
+                wd[s0 + nd] = w[p]
+                nd += 1
+                if fric != 0.0 and t[p, 0] < 0.0:
+                    tang = 0.5 * (t[p, 1] * t[p, 1]) / ct
+            else:
+                if heel == s1 - s0:
+                    heel = p - s0
+                x = (1.0 - kappa[p]) / lam1
+                if not x != x:                       # np.clip(x, 0, 1), NaN kept
+                    x = min(max(x, 0.0), 1.0)
+                wb[s0 + nb] = w[p]
+                cpb[s0 + nb] = (1.0 - d) * tau * ratio * x
+                nb += 1
+            stored[p] = e + tang
+        ints[i, 0] = nd
+        ints[i, 1] = nb
+        flts[i, 0] = 0.0 + _pairwise_sum(wd, s0, nd)
+        flts[i, 1] = 0.0 + _pairwise_sum(w, s0, heel) if heel > 0 else 0.0
+        flts[i, 2] = dmax
+        flts[i, 3] = 0.0 + _pairwise_sum(wb, s0, nb)
+
+
+class JointScan:
+    """What a step's measures need from the committed state, computed once for every joint
+    in one compiled pass (``_scan``) instead of ~40 small numpy operations spread over the
+    joints', safety's and energy's measures (issue #15). Fields per joint i (``slices[i]``):
+    n_debonded, crack_length, crack_length_upstream, max_D, bonded_length, bonded(i) -> (w,
+    c_p) of its bonded points; ``stored`` the recoverable energy of every point."""
+
+    def __init__(self, joints, state, gap, traction):
+        n = joints.w.size
+        st, g, t = state, _c2(gap), _c2(traction)
+        self.slices = joints.slices
+        self.wb, self.cpb, self.stored = np.empty(n), np.empty(n), np.empty(n)
+        self.ints = np.empty((len(joints.slices), 2), dtype=np.int64)
+        self.flts = np.empty((len(joints.slices), 4))
+        _scan(joints._starts, joints._stops, joints.law_params(), joints._wc,
+              _c1(st.kappa), _c1(st.damage), t, g, np.empty(n), self.wb, self.cpb,
+              self.stored, self.ints, self.flts)
+
+    def bonded(self, i):
+        s0 = self.slices[i].start
+        nb = int(self.ints[i, 1])
+        return self.wb[s0:s0 + nb], self.cpb[s0:s0 + nb]
+
+
+def _c1(a):
+    return np.ascontiguousarray(a, dtype=np.float64)
+
+
+def _c2(a):
+    a = np.ascontiguousarray(a, dtype=np.float64)
+    return a.reshape(-1, 2)
+
+
 class JointSet:
     def __init__(self, scene, iface):
         tables = scene.joint_tables()
@@ -53,6 +178,12 @@ class JointSet:
         # alone, so an unchanged length leaves the law and the size as they are (skipped)
         self._b = [None] * len(self.names)
         self._wsum = [float(self.w[sl].sum()) for sl in self.slices]
+        self._wc = np.ascontiguousarray(self.w, dtype=np.float64)
+        self._starts = np.array([sl.start for sl in self.slices], dtype=np.int64)
+        self._stops = np.array([sl.stop for sl in self.slices], dtype=np.int64)
+        if any(sl.step not in (None, 1) or sl.stop <= sl.start for sl in self.slices):
+            raise ValueError("joints: every joint must be a non-empty contiguous slice")
+        self._keys = [tuple(f"{n}_{k}" for k in JOINT_KEYS) for n in self.names]
 
     def __len__(self):
         return len(self.names)
@@ -61,18 +192,23 @@ class JointSet:
         """The law the solver evaluates: the base's own law when it is the only joint."""
         return self.laws[0] if len(self.laws) == 1 else JointLaws(self.laws, self.slices)
 
-    def update(self, state) -> bool:
+    def update(self, state, scan=None) -> bool:
         """Size-scale update at the start of a step from each joint's failed length; True if
-        any law changed (the solver must then be given ``solver_law()``)."""
+        any law changed (the solver must then be given ``solver_law()``). scan: the
+        ``JointScan`` of ``state`` if the caller has it (its crack lengths are the same
+        sums)."""
         changed = False
         deb = None
         for i, (sc, sl) in enumerate(zip(self.scalings, self.slices)):
             if sc is None:
                 self.sizes[i] = 0.0
                 continue
-            if deb is None:
-                deb = np.asarray(state.debonded, bool)
-            b = float(np.sum(self.w[sl][deb[sl]]))     # crack_measures(...)[0]
+            if scan is not None:
+                b = float(scan.flts[i, 0])
+            else:
+                if deb is None:
+                    deb = np.asarray(state.debonded, bool)
+                b = float(np.sum(self.w[sl][deb[sl]]))     # crack_measures(...)[0]
             if b == self._b[i]:
                 continue
             new = sc.update(self.laws[i], b)
@@ -83,26 +219,36 @@ class JointSet:
             self._b[i] = b
         return changed
 
-    def measures(self, state, gap) -> dict:
-        """{"<joint>_<key>": value} for every joint and JOINT_KEYS."""
+    def law_params(self) -> np.ndarray:
+        """(joints, 5): tau_max, l_Nc / l_Tc, lambda_max, friction (0/1) and the tangential
+        stick stiffness C_T of each joint's current law (``_scan``)."""
+        par = np.empty((len(self.laws), 5))
+        for i, law in enumerate(self.laws):
+            c, fr = law.cohesive, law.friction
+            ct = 1.0 if fr is None else (fr.penalty if fr.penalty is not None
+                                         else c.k_tangential)
+            par[i] = (c.tau_max, c.l_Nc / c.l_Tc, c.lambda_max, 0.0 if fr is None else 1.0, ct)
+        return par
+
+    def scan(self, state, gap, traction) -> JointScan:
+        return JointScan(self, state, gap, traction)
+
+    def measures(self, state, gap, scan=None, traction=None) -> dict:
+        """{"<joint>_<key>": value} for every joint and JOINT_KEYS. scan: the step's
+        ``JointScan`` (else formed here; its traction-dependent parts unused: ``traction``
+        defaults to zeros)."""
+        if scan is None:
+            scan = self.scan(state, gap, np.zeros_like(gap) if traction is None else traction)
         out = {}
-        deb = np.asarray(state.debonded, bool)
         damage = state.damage
-        for name, sl, law, b, wsum in zip(self.names, self.slices, self.laws, self.sizes,
-                                          self._wsum):
-            w = self.w[sl]
-            total, upstream, ndeb = debonded_measures(deb[sl], w)
-            d = damage[sl]
+        ints, flts = scan.ints.tolist(), scan.flts.tolist()
+        for i, (sl, law, b, wsum, keys) in enumerate(zip(self.slices, self.laws, self.sizes,
+                                                        self._wsum, self._keys)):
             g = gap[sl]
-            out[f"{name}_crack_length"] = total
-            out[f"{name}_crack_length_upstream"] = upstream
-            out[f"{name}_n_debonded"] = ndeb
-            out[f"{name}_max_D"] = float(d.max())
-            out[f"{name}_D_upstream"] = float(d[0])
-            out[f"{name}_opening_upstream"] = float(g[0, 0])
-            out[f"{name}_slip_mean"] = float(np.dot(w, g[:, 1]) / wsum)
-            out[f"{name}_size_b"] = b
-            out[f"{name}_sigma_max"] = law.cohesive.sigma_max
+            tot, up, dmax, _ = flts[i]
+            vals = (tot, up, ints[i][0], dmax, float(damage[sl.start]), float(g[0, 0]),
+                    float(np.dot(self.w[sl], g[:, 1]) / wsum), b, law.cohesive.sigma_max)
+            out.update(zip(keys, vals))
         return out
 
     def history_keys(self) -> list[str]:

@@ -234,34 +234,33 @@ class Safety:
         return rep, f
 
     # ---------------------------------------------------------------- measures
-    def joint_measures(self, t, state, p) -> dict:
+    def joint_measures(self, t, state, p, scan=None) -> dict:
         """{joint: {normal_force, shear_force, uplift_force, bonded_length, cohesion_force,
-        friction, sliding_fs, slip_mean}} from tractions t, state and pressure p."""
+        friction, sliding_fs}} from tractions t, state and pressure p. scan: the
+        ``JointScan`` of (state, t) if the caller has it (bonded points, their c_p)."""
+        if scan is None:
+            scan = self.joints.scan(state, np.zeros_like(t), t)
         out = {}
         w = self.joints.w
-        deb = np.asarray(state.debonded, bool)
-        kappa, damage = state.kappa, state.damage
-        for name, sl, law in zip(self.joints.names, self.joints.slices, self.joints.laws):
+        for i, (name, sl, law) in enumerate(zip(self.joints.names, self.joints.slices,
+                                                self.joints.laws)):
             ws = w[sl]
             N = -float(np.dot(ws, t[sl, 0]))
             T = abs(float(np.dot(ws, t[sl, 1])))
             U = float(np.dot(ws, p[sl]))
-            bonded = ~deb[sl]
-            c = law.cohesive
-            soft = np.clip((1.0 - kappa[sl]) / (1.0 - c.lambda_max), 0.0, 1.0)
-            cp = (1.0 - damage[sl]) * c.tau_max * (c.l_Nc / c.l_Tc) * soft
-            C = float(np.dot(ws[bonded], cp[bonded]))
+            wb, cpb = scan.bonded(i)
+            C = float(np.dot(wb, cpb))
             f = 0.0 if law.friction is None else float(law.friction.f)
             num = f * max(N, 0.0) + C
             fs = num / T if T > num / FS_CAP else FS_CAP
             out[name] = {"normal_force": N, "shear_force": T, "uplift_force": U,
-                         "bonded_length": float(ws[bonded].sum()), "cohesion_force": C,
+                         "bonded_length": float(scan.flts[i, 3]), "cohesion_force": C,
                          "friction": f, "sliding_fs": fs}
         return out
 
-    def step_measures(self, t, state) -> dict:
+    def step_measures(self, t, state, scan=None) -> dict:
         """The per-step history columns "<joint>_<SAFETY_KEYS>"."""
-        m = self.joint_measures(t, state, self.uplift.p)
+        m = self.joint_measures(t, state, self.uplift.p, scan)
         return {key: m[n][k] for n, k, key in self._step_keys}
 
     def history_keys(self) -> list[str]:
