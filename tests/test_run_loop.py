@@ -236,3 +236,16 @@ def test_joint_scan_gives_the_numpy_measures_bit_for_bit():
         assert a.update(st, scan) == b.update(st)
         assert a.sizes == b.sizes and a.laws[0].cohesive == b.laws[0].cohesive
     assert checked_friction
+
+
+def test_seismic_load_is_the_numpy_expression():
+    """f_static - M r_x a_x - M r_y a_y of a step in one loop: numpy's bits (same order)."""
+    from ngs_driver.run.dam import _seismic_load
+    rng = np.random.default_rng(4)
+    f, mx, my = (rng.standard_normal(1000) * 10.0 ** rng.integers(-3, 9, 1000)
+                 for _ in range(3))
+    for ax, ay in ((0.3, -1.7), (1e-9, 2.5e3), (0.0, 0.0)):
+        ax, ay = np.float64(ax), np.float64(ay)
+        got = _seismic_load(f, mx, my, ax, ay)
+        assert np.array_equal(got, f - mx * ax - my * ay)
+        assert not np.array_equal(got, f - (mx * ax + my * ay)) or ax == 0.0

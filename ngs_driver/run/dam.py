@@ -27,6 +27,7 @@ import pathlib
 import time
 
 import numpy as np
+from numba import njit
 
 from ..out.files import atomic_savez, atomic_write_json, environment_info
 from ..setup import FORMULATION, characteristic_times, law_parts, validate
@@ -36,6 +37,15 @@ from .energy import EnergyBudget
 from .joints import JointSet
 from .record import HIST_KEYS, History, results_from_history, snapshot_steps
 from .safety import Safety
+
+
+@njit(cache=True)
+def _seismic_load(f_static, Mrx, Mry, ax, ay):
+    """f_static - Mrx ax - Mry ay in one loop (numpy's three operations, in their order)."""
+    f = np.empty(f_static.size)
+    for i in range(f.size):
+        f[i] = f_static[i] - Mrx[i] * ax - Mry[i] * ay
+    return f
 
 
 class RunInterrupted(RuntimeError):
@@ -259,6 +269,10 @@ def _run(scene, outdir, resume, progress, max_steps, model, plots, log, freeze) 
                      "dynamic_wall": dyn_wall, "laws": joints.params()}, **arrays)
 
     # ---- time loop -----------------------------------------------------------------------
+    loads = [np.ascontiguousarray(a, dtype=float) for a in (f_static, Mrx, Mry)]
+    if any(a.shape != loads[0].shape or a.ndim != 1 for a in loads):     # _seismic_load
+        raise RuntimeError(f"run: load vectors of shapes {[a.shape for a in loads]}")
+    f_static, Mrx, Mry = loads
     from tqdm import tqdm
 
     if freeze:
@@ -275,7 +289,7 @@ def _run(scene, outdir, resume, progress, max_steps, model, plots, log, freeze) 
     n_cuts, n_cuts_at = 0, 0
     try:
         for k in range(k_start + 1, n_steps + 1):
-            f_k = f_static - Mrx * ax[k] - Mry * ay[k]
+            f_k = _seismic_load(f_static, Mrx, Mry, ax[k], ay[k])
             try:
                 rep, f_k = safety.step(solver, f_k)      # f_k: with the uplift used
             except SolverError as e:
