@@ -1,5 +1,8 @@
 """Shared test helpers: the one way tests load a verification study (its ``main(fast, outdir)``
-in the fast version)."""
+in the fast version); and the compile time of the law's kernels on a cold numba cache (below)."""
+import contextvars
+import copy
+import functools
 import importlib
 import os
 import pathlib
@@ -8,6 +11,57 @@ import sys
 import pytest
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
+
+
+def _share_scope_copy_in_numba_inlining():
+    """Halve numba's compile time of the law's loops in the test processes, same machine code.
+
+    Most of a cold-cache ``make test`` is numba compiling the loops of interfacelaw/_kernels.py
+    (one per kind of law, dim, optional parts, serial/parallel), and half of each compile was
+    ``copy.deepcopy`` in numba's IR inliner (``inline="always"``: ``_law`` into each loop):
+    ``InlineWorker.inline_ir`` copies the callee block by block, each block with a fresh memo,
+    so the callee's scope with all its variables is copied once per block (~1 M ``ir.Var``
+    copies per loop; numba issue #8989). Here the block copies of one ``inline_ir`` call share
+    one memo per scope: the scope is copied once. Same IR out (LLVM IR of the serial and
+    parallel loops compared identical, 2D/3D, fast/general, with and without the optional
+    parts), 10-17 s -> 3-7 s per loop in a pytest process. Tests only (the library leaves numba
+    alone); skipped if numba's internals are not the ones this was written for."""
+    try:
+        from numba.core import inline_closurecall as icc, ir
+        inline_ir = icc.InlineWorker.inline_ir
+    except (ImportError, AttributeError):
+        return
+    if icc.copy is not copy or getattr(inline_ir, "shared_scope_copy", False):
+        return
+    memos = contextvars.ContextVar("inline_ir_memos", default=None)
+
+    class Copy:
+        """The copy module as inline_closurecall sees it: inside inline_ir, a deepcopy of a
+        block reuses the memo of the blocks of the same scope copied before it."""
+        def __getattr__(self, name):
+            return getattr(copy, name)
+
+        @staticmethod
+        def deepcopy(x, memo=None):
+            active = memos.get()
+            if memo is None and active is not None and type(x) is ir.Block:
+                memo = active.setdefault(id(x.scope), {})
+            return copy.deepcopy(x, memo)
+
+    @functools.wraps(inline_ir)
+    def shared(self, *args, **kwargs):
+        token = memos.set({})   # the memos (and the originals they keep alive) live one call
+        try:
+            return inline_ir(self, *args, **kwargs)
+        finally:
+            memos.reset(token)
+
+    shared.shared_scope_copy = True
+    icc.InlineWorker.inline_ir = shared
+    icc.copy = Copy()
+
+
+_share_scope_copy_in_numba_inlining()
 
 
 @pytest.fixture
