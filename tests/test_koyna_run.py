@@ -70,6 +70,20 @@ def test_smoke_outputs(smoke_run):
     assert d["results"]["max_D"] > 0 and d["solver_totals"]["iterations"] >= 50
 
 
+def test_mesh_triangles_from_netgen_arrays(smoke_model):
+    """The figures' triangles from netgen's element arrays are NGSolve's element loop's."""
+    import ngsolve as ngs
+
+    from ngs_driver.out.plots import _mesh_triangles
+    P, reg = _mesh_triangles(smoke_model.mesh)
+    mesh = smoke_model.mesh
+    V = np.array([v.point for v in mesh.vertices])
+    els = list(mesh.Elements(ngs.VOL))
+    ref = V[np.array([[v.nr for v in el.vertices] for el in els])][:, :, :2]
+    assert P.shape == (mesh.ne, 3, 2) and np.array_equal(P, ref)
+    assert reg.tolist() == [el.mat for el in els] and {"dam", "rock"} <= set(reg.tolist())
+
+
 def test_crack_measures():
     class S:
         debonded = np.array([True, True, False, True])

@@ -72,11 +72,23 @@ def environment_info() -> dict:
 
 
 def _csv_text(header: list[str], cols: list[np.ndarray], comments=()) -> str:
+    """Comment lines, the header and one row per index, each value its shortest repr that
+    round-trips (exact values). Built column by column: a column with few distinct values
+    (counters, flags, constants: about half the history's columns) formats each distinct
+    bit pattern once (so -0.0 stays "-0.0")."""
     lines = [f"# {c}" for c in comments]
     lines.append(",".join(header))
-    data = np.column_stack([np.asarray(c, float) for c in cols]) if cols else np.zeros((0, 0))
-    for row in data.tolist():            # shortest repr that round-trips: exact values
-        lines.append(",".join(map(repr, row)))
+    strs = []
+    for c in cols:
+        c = np.ascontiguousarray(c, dtype=np.float64)
+        bits, first, inv = np.unique(c.view(np.int64), return_index=True, return_inverse=True)
+        if 4 * bits.size < c.size:
+            reprs = np.array(list(map(repr, c[first].tolist())), dtype=object)
+            strs.append(reprs[inv.ravel()].tolist())
+        else:
+            strs.append(list(map(repr, c.tolist())))
+    if strs:
+        lines.extend(map(",".join, zip(*strs)))
     return "\n".join(lines) + "\n"
 
 

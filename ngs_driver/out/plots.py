@@ -26,6 +26,21 @@ def subplots(*args, figsize=None, **kw):
     return fig, fig.subplots(*args, **kw)
 
 
+# zlib level of the PNGs: 3 encodes the run's figures in ~55 % of the time of PIL's default 6
+# (0.17 s against 0.31 s for a Koyna run), files 0-8 % larger; the pixels are the same
+PNG_COMPRESS_LEVEL = 3
+
+
+def save_png(fig, path, dpi, bbox_inches=None):
+    """``fig.savefig(path, dpi=dpi, bbox_inches=...)`` as a PNG written atomically
+    (``out.files``), zlib level ``PNG_COMPRESS_LEVEL``. Returns the file name."""
+    buf = _io.BytesIO()
+    fig.savefig(buf, format="png", dpi=dpi, bbox_inches=bbox_inches,
+                pil_kwargs={"compress_level": PNG_COMPRESS_LEVEL})
+    atomic_write_bytes(path, buf.getvalue())
+    return pathlib.Path(path).name
+
+
 def _savefig(fig, path, dpi=130):
     """The PNG of ``savefig(bbox_inches="tight")``, drawn once: "tight" draws the figure
     twice, the first time only to measure it; here the box is measured on the Agg renderer at
@@ -41,10 +56,7 @@ def _savefig(fig, path, dpi=130):
         bbox = fig.get_tightbbox(canvas.get_renderer()).padded(rcParams["savefig.pad_inches"])
     finally:
         fig.dpi = dpi0
-    buf = _io.BytesIO()
-    fig.savefig(buf, format="png", dpi=dpi, bbox_inches=bbox)
-    atomic_write_bytes(path, buf.getvalue())
-    return pathlib.Path(path).name
+    return save_png(fig, path, dpi, bbox_inches=bbox)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -125,28 +137,51 @@ def plot_crack_length(path, series, title):
 
 def _triangles(model, box=None, triangles=None):
     """(P (ntri,3,2), region names, centroids) of the volume elements, optionally in box.
-    triangles: the result of ``_triangles(model)`` if the caller has it (a loop over the
-    mesh in Python, ~0.05 s on the default Koyna mesh)."""
+    triangles: the result of ``_triangles(model)`` if the caller has it."""
     if triangles is not None:
         P, reg, C = triangles
     else:
-        import ngsolve as ngs
-
-        mesh = model.mesh
-        V = np.array([v.point for v in mesh.vertices])
-        tri, reg = [], []
-        for el in mesh.Elements(ngs.VOL):
-            tri.append([v.nr for v in el.vertices])
-            reg.append(el.mat)
-        tri = np.array(tri)
-        P = V[tri][:, :, :2]
+        P, reg = _mesh_triangles(model.mesh)
         C = P.mean(axis=1)
-        reg = np.array(reg)
     if box is not None:
         x0, x1, y0, y1 = box
         m = (C[:, 0] >= x0) & (C[:, 0] <= x1) & (C[:, 1] >= y0) & (C[:, 1] <= y1)
         P, C, reg = P[m], C[m], reg[m]
     return P, reg, C
+
+
+def _mesh_triangles(mesh):
+    """(vertex coordinates (ntri, 3, 2), region names) of the volume elements, in NGSolve's
+    element order. From netgen's arrays (~1 ms) when every element is a triangle whose
+    first three nodes are NGSolve vertices (netgen point i = vertex i - 1 ... checked);
+    otherwise by NGSolve's element loop (~0.07 s on the default Koyna mesh)."""
+    import ngsolve as ngs
+
+    try:
+        ng = mesh.ngmesh
+        els = ng.Elements2D().NumPy()
+        X = np.asarray(ng.Coordinates(), dtype=float)
+        nodes = np.asarray(els["nodes"], dtype=np.int64)
+        tri = nodes[:, :3] - 1
+        names = {int(i): ng.GetMaterial(int(i)) for i in np.unique(els["index"])}
+        ok = bool(mesh.dim == 2 and tri.shape[0] == mesh.ne and tri.size and tri.min() >= 0
+                  and tri.max() < mesh.nv and not np.any(nodes[:, 3:])     # triangles only
+                  and X.shape[0] >= mesh.nv)
+    except (AttributeError, TypeError, ValueError, IndexError, KeyError):
+        ok = False
+    if ok:
+        els_first = next(iter(mesh.Elements(ngs.VOL)))     # spot check: the numbering
+        ok = ([v.nr for v in els_first.vertices] == tri[0].tolist()
+              and els_first.mat == names[int(els["index"][0])])
+    if ok:
+        reg = np.array([names[int(i)] for i in els["index"]])
+        return X[:, :2][tri], reg
+    V = np.array([v.point for v in mesh.vertices])
+    tri, reg = [], []
+    for el in mesh.Elements(ngs.VOL):
+        tri.append([v.nr for v in el.vertices])
+        reg.append(el.mat)
+    return V[np.array(tri)][:, :, :2], np.array(reg)
 
 
 def _eval(model, cf, X, Y):

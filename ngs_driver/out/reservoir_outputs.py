@@ -10,9 +10,12 @@ the pressure is recovered from the accelerations.
 from __future__ import annotations
 
 import csv
+import io
 import pathlib
 
 import numpy as np
+
+from .files import atomic_write_text
 
 FRACTIONS = (0.0, 0.25, 0.5, 0.75, 0.9)      # elevations / level at which p is written
 
@@ -174,15 +177,16 @@ class ReservoirRun:
         for q in out.glob("reservoir_state_*.npz"):       # the run is complete
             q.unlink()
         keys = list(self.rows)
-        with open(out / "reservoir_pressure.csv", "w", newline="") as fh:
-            w = csv.writer(fh)
-            w.writerow([k if k in ("t",) else (k + "_Pa" if k.startswith("p_") else k + "_N_per_m")
-                        for k in keys])
-            for i in range(len(self.rows["t"])):
-                w.writerow([f"{self.rows[k][i]:.9g}" for k in keys])
+        fh = io.StringIO(newline="")
+        w = csv.writer(fh)
+        w.writerow([k if k in ("t",) else (k + "_Pa" if k.startswith("p_") else k + "_N_per_m")
+                    for k in keys])
+        for i in range(len(self.rows["t"])):
+            w.writerow([f"{self.rows[k][i]:.9g}" for k in keys])
+        atomic_write_text(out / "reservoir_pressure.csv", fh.getvalue())
         files = ["reservoir_pressure.csv"]
         if plots and self.rows["t"]:
-            from .plots import subplots
+            from .plots import save_png, subplots
             fig, (a1, a2) = subplots(2, 1, figsize=(8, 6), sharex=True)
             t = np.asarray(self.rows["t"])
             for y in self.ys:
@@ -197,8 +201,7 @@ class ReservoirRun:
             a2.set_xlabel("t [s]")
             fig.tight_layout()
             fig.set_layout_engine(None)      # laid out: savefig need not draw twice
-            fig.savefig(out / "reservoir_pressure.png", dpi=120)
-            files.append("reservoir_pressure.png")
+            files.append(save_png(fig, out / "reservoir_pressure.png", dpi=120))   # atomic
         files += [f"vtk/{f}" for f in getattr(self, "_vtk_files", [])]
         return files
 

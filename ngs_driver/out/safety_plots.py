@@ -17,7 +17,7 @@ def _fmt(v, f="{:.4g}"):
 def plot_sliding_fs(path, H, static_joints, post, title, criterion=1.3):
     """FS(t) per joint (static value at t = 0, post-earthquake value after the record) and the
     base's N', T, U."""
-    from .plots import subplots
+    from .plots import save_png, subplots
 
     names = [k[:-len("_sliding_fs")] for k in H if k.endswith("_sliding_fs")]
     t = H["t"]
@@ -47,8 +47,7 @@ def plot_sliding_fs(path, H, static_joints, post, title, criterion=1.3):
     a2.legend(fontsize=7)
     fig.tight_layout()
     fig.set_layout_engine(None)      # laid out: savefig need not draw twice
-    fig.savefig(path, dpi=110)
-    return pathlib.Path(path).name
+    return save_png(fig, path, dpi=110)           # atomic, like every result file
 
 
 def safety_markdown(scene, static_joints, post, safety_sum) -> str:
@@ -86,7 +85,7 @@ def plot_screening(path, scr, title):
     """Map of the maximum DCR over the record per dam element, the worst element marked."""
     from matplotlib.collections import PolyCollection
 
-    from .plots import subplots
+    from .plots import save_png, subplots
 
     s = scr.summary()
     fig, ax = subplots(figsize=(6, 7))
@@ -105,8 +104,7 @@ def plot_screening(path, scr, title):
     ax.set_title(title + "\nlinear screening (EM 1110-2-6053): max over the record", fontsize=8)
     fig.tight_layout()
     fig.set_layout_engine(None)      # laid out: savefig need not draw twice
-    fig.savefig(path, dpi=110)
-    return pathlib.Path(path).name
+    return save_png(fig, path, dpi=110)           # atomic, like every result file
 
 
 def screening_markdown(s) -> str:
