@@ -266,3 +266,27 @@ def test_csv_text_is_the_shortest_repr_of_every_value():
     rows = [",".join(repr(float(c[i])) for c in cols) for i in range(n)]
     assert txt == "# note\na,b,c,d,e\n" + "\n".join(rows) + "\n"
     assert "-0.0" in txt and ",0.0," in txt
+
+
+def test_joint_scan_divides_by_zero_as_numpy():
+    """lambda_max = 1 or a zero stick stiffness: inf / nan as numpy's measures, no exception."""
+    from ngs_driver.run.joints import _scan
+    n = 6
+    kappa = np.array([0.0, 0.5, 1.0, 1.2, 0.0, 1.0])
+    damage = np.array([0.0, 0.2, 0.0, 0.0, 1.0, 0.0])
+    t = np.array([[-1.0, 2.0]] * n)
+    g = np.ones((n, 2))
+    par = np.array([[3e6, 1.0, 1.0, 1.0, 0.0]])          # lambda_max = 1, C_T = 0
+    wb, cpb, stored = np.empty(n), np.empty(n), np.empty(n)
+    ints, flts = np.empty((1, 2), dtype=np.int64), np.empty((1, 4))
+    _scan(np.array([0]), np.array([n]), par, np.ones(n), kappa, damage, t, g, np.empty(n),
+          wb, cpb, stored, ints, flts)
+    with np.errstate(all="ignore"):
+        x = np.clip((1.0 - kappa) / (1.0 - 1.0), 0.0, 1.0)
+        cp = (1.0 - damage) * 3e6 * 1.0 * x
+        deb = (kappa >= 1.0) | (damage >= 1.0)
+        tang = np.where(deb & (t[:, 0] < 0), 0.5 * t[:, 1] ** 2 / 0.0, 0.5 * t[:, 1] * g[:, 1])
+    nb = int(ints[0, 1])
+    assert nb == 2 and np.array_equal(cpb[:nb], cp[~deb], equal_nan=True)
+    assert np.array_equal(stored, 0.5 * t[:, 0] * g[:, 0] + tang)
+    assert np.isinf(stored[deb]).all() and cpb[:nb].tolist() == [3e6, 0.8 * 3e6]   # x = inf -> 1

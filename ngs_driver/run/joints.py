@@ -80,7 +80,7 @@ def np_sum(a) -> float:
     return 0.0 + _pairwise_sum(a, 0, a.size)
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")       # x / 0 -> inf / nan as numpy, no exception
 def _scan(starts, stops, par, w, kappa, damage, t, g, wd, wb, cpb, stored, ints, flts):
     """The per-point work of a step's joint measures, all joints in one call (``JointScan``).
 
