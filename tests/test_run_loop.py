@@ -3,6 +3,7 @@ the products it takes anyway, the skipped size-scale update, the history buffer.
 from types import SimpleNamespace
 
 import numpy as np
+import pytest
 import scipy.sparse as sp
 
 from interfacelaw import CohesiveParams, ContactParams, InterfaceLaw
@@ -290,3 +291,35 @@ def test_joint_scan_divides_by_zero_as_numpy():
     assert nb == 2 and np.array_equal(cpb[:nb], cp[~deb], equal_nan=True)
     assert np.array_equal(stored, 0.5 * t[:, 0] * g[:, 0] + tang)
     assert np.isinf(stored[deb]).all() and cpb[:nb].tolist() == [3e6, 0.8 * 3e6]   # x = inf -> 1
+
+
+def test_checkpoints_written_in_the_background_in_order(tmp_path):
+    """A checkpoint is the arrays and meta at save() (later changes of the caller's arrays do
+    not reach it); written by a thread in the order npz, json (the commit point), old npz
+    removed; a write error is raised by the run's next wait()."""
+    from ngs_driver.run.checkpoint import Checkpointer
+    ck = Checkpointer(tmp_path, 250)
+    u = np.arange(5.0)
+    meta = {"time": 0.5}
+    ck.save(250, meta, u=u)
+    u[:] = -1.0                                  # the caller moves on
+    meta["time"] = 9.0
+    ck.save(500, {"time": 1.0}, u=u)
+    m, arrs = ck.load()                          # waits for the writer
+    assert m["step"] == 500 and m["arrays"] == "checkpoint_0000500.npz"
+    assert np.array_equal(arrs["u"], -np.ones(5))
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["checkpoint.json",
+                                                          "checkpoint_0000500.npz"]
+    ck2 = Checkpointer(tmp_path / "a", 1)
+    v, meta = np.arange(3.0), {"time": 0.0}
+    ck2.save(1, meta, v=v)
+    v[:] = 7.0
+    meta["time"] = 7.0
+    m, arrs = ck2.load()
+    assert arrs["v"].tolist() == [0.0, 1.0, 2.0] and m["time"] == 0.0
+    bad = Checkpointer(tmp_path / "file_not_dir", 1)
+    (tmp_path / "file_not_dir").write_text("x")  # the directory is a file: the write fails
+    bad.save(1, {}, u=u)
+    with pytest.raises(OSError):
+        bad.wait()
+    bad.wait()                                   # reported once

@@ -21,7 +21,7 @@ from interfacelaw.atomic import atomic_write_bytes, atomic_write_text
 
 __all__ = ["atomic_write_bytes", "atomic_write_text", "atomic_write_json", "atomic_savez",
            "environment_info", "git_revision", "write_timeseries_csv", "write_damage_csv",
-           "read_csv"]
+           "read_csv", "json_text", "npz_bytes"]
 
 
 def _json_default(o):
@@ -34,14 +34,24 @@ def _json_default(o):
     raise TypeError(f"not JSON serialisable: {type(o).__name__}")
 
 
+def json_text(obj) -> str:
+    """The text ``atomic_write_json`` writes."""
+    return json.dumps(obj, indent=2, default=_json_default) + "\n"
+
+
 def atomic_write_json(path, obj) -> pathlib.Path:
-    return atomic_write_text(path, json.dumps(obj, indent=2, default=_json_default) + "\n")
+    return atomic_write_text(path, json_text(obj))
+
+
+def npz_bytes(**arrays) -> bytes:
+    """The bytes ``atomic_savez`` writes."""
+    buf = io.BytesIO()
+    np.savez(buf, **arrays)
+    return buf.getvalue()
 
 
 def atomic_savez(path, **arrays) -> pathlib.Path:
-    buf = io.BytesIO()
-    np.savez(buf, **arrays)
-    return atomic_write_bytes(path, buf.getvalue())
+    return atomic_write_bytes(path, npz_bytes(**arrays))
 
 
 def git_revision() -> str | None:

@@ -3,10 +3,11 @@ from __future__ import annotations
 
 import json
 import pathlib
+import threading
 
 import numpy as np
 
-from ..out.files import atomic_savez, atomic_write_json
+from ..out.files import atomic_write_bytes, atomic_write_text, json_text, npz_bytes
 
 class Checkpointer:
     """Writes ``checkpoint.npz`` (arrays) + ``checkpoint.json`` (meta) atomically.
@@ -21,6 +22,8 @@ class Checkpointer:
                              "integer >= 0 (0 disables checkpoints)")
         self.dir = pathlib.Path(directory)
         self.every = every
+        self._writer = None                 # the thread writing the last checkpoint
+        self._error = None
 
     @property
     def meta_path(self) -> pathlib.Path:
@@ -30,15 +33,41 @@ class Checkpointer:
         return self.every > 0 and step > 0 and step % self.every == 0
 
     def save(self, step: int, meta: dict, **arrays) -> None:
+        """Serialise the checkpoint now; write it in the background (issue #15): the npz, then
+        the json that names it (the commit point), then the previous npz removed, in this
+        order in one writer thread, so the time loop does not wait for the disk (write and
+        fsync, ~10-15 ms per Koyna checkpoint). One write at a time: a save waits for the
+        previous one; ``wait()`` before anything reads the directory or the run ends."""
         name = f"checkpoint_{step:07d}.npz"
-        atomic_savez(self.dir / name, **arrays)
+        data = npz_bytes(**arrays)
+        text = json_text(dict(meta, step=step, arrays=name))
+        self.wait()
         old = self.load_meta()
-        atomic_write_json(self.meta_path, dict(meta, step=step, arrays=name))
-        if old and old.get("arrays") and old["arrays"] != name:
-            try:
-                (self.dir / old["arrays"]).unlink()
-            except FileNotFoundError:
-                pass
+        stale = old["arrays"] if old and old.get("arrays") and old["arrays"] != name else None
+        self._writer = threading.Thread(target=self._write, args=(name, data, text, stale),
+                                        name=f"checkpoint {step}")
+        self._writer.start()
+
+    def _write(self, name, data, text, stale):
+        try:
+            atomic_write_bytes(self.dir / name, data)
+            atomic_write_text(self.meta_path, text)
+            if stale is not None:
+                try:
+                    (self.dir / stale).unlink()
+                except FileNotFoundError:
+                    pass
+        except BaseException as e:          # re-raised by wait() in the run's thread
+            self._error = e
+
+    def wait(self) -> None:
+        """Wait for the checkpoint being written (if any); re-raise its error."""
+        w, self._writer = self._writer, None
+        if w is not None:
+            w.join()
+        e, self._error = self._error, None
+        if e is not None:
+            raise e
 
     def load_meta(self) -> dict | None:
         if not self.meta_path.exists():
@@ -46,6 +75,7 @@ class Checkpointer:
         return json.loads(self.meta_path.read_text())
 
     def load(self):
+        self.wait()
         meta = self.load_meta()
         if meta is None:
             raise FileNotFoundError(f"--resume: no checkpoint in {self.dir}; allowed: a results "

@@ -351,6 +351,7 @@ def _run(scene, outdir, resume, progress, max_steps, model, plots, log, freeze) 
                                      "max_steps")
     finally:
         bar.close()
+        ckp.wait()                   # the last checkpoint on disk (written in the background)
     t_dynamic = dyn_wall_before + time.perf_counter() - t_dyn0
     if stopped is not None and snaps["step"][-1] != stopped["step"]:   # D(x) where it stopped
         snapshot(snaps, stopped["step"], stopped["t"])
