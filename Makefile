@@ -23,8 +23,10 @@ run: $(STAMP)
 	$(VPY) -m ngs_driver run-paper koyna --out results
 	$(VPY) -m ngs_driver run-paper koyna --set ground_motion.scale=0.2 --out results/scale_0.2
 
-# both cores: the suite is ~9 CPU-minutes, most of it numba compiling the law's kernels on a
-# fresh clone; one worker per core, each test file on one worker (its fixtures built once)
+# both cores: on a fresh clone (cold numba cache) most of the suite is numba compiling the law's
+# kernels; one worker per core, each test file on one worker (its fixtures built once).
+# tests/conftest.py halves that compile time (numba's inliner; the same machine code) and hands
+# out the slowest files first, so that the two workers end together
 test: $(STAMP)
 	$(VPY) -m pytest -q --benchmark-disable -n 2 --dist loadfile tests
 
