@@ -127,3 +127,21 @@ def test_resume_with_compressible_water_is_exact(tmp_path):
     ub = np.load(tmp_path / "b" / "final_state.npz")["u"]
     assert np.array_equal(ua, ub)
     assert not list((tmp_path / "b").glob("reservoir_state_*.npz"))
+
+
+def test_reservoir_state_of_the_previous_checkpoint_kept(tmp_path):
+    """The water state of step k is saved before checkpoint.json commits step k (written in
+    the background): the previous checkpoint's state stays until the next save, so a run
+    stopped in between can resume from the previous step."""
+    from ngs_driver.run.dam import RunInterrupted, run
+
+    sets = ["reservoir.model=acoustic", "time.duration=0.08", "output.checkpoint_every=10"]
+    sc = load_scene("koyna_smoke", sets)
+    with pytest.raises(RunInterrupted):
+        run(sc, tmp_path, progress=False, plots=False, max_steps=22)
+    assert sorted(p.name for p in tmp_path.glob("reservoir_state_*.npz")) == [
+        "reservoir_state_0000010.npz", "reservoir_state_0000020.npz"]
+    with pytest.raises(RunInterrupted):
+        run(sc, tmp_path, resume=True, progress=False, plots=False, max_steps=10)
+    assert sorted(p.name for p in tmp_path.glob("reservoir_state_*.npz")) == [
+        "reservoir_state_0000020.npz", "reservoir_state_0000030.npz"]

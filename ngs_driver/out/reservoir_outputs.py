@@ -71,8 +71,12 @@ class ReservoirRun:
         tmp = self.out / f".reservoir_state_{k:07d}.tmp.npz"
         np.savez(tmp, **arrs)
         tmp.replace(self._state_path(k))
+        # the state of the previous checkpoint stays until the next save: this one is saved
+        # before the run's checkpoint.json commits step k (written in the background), and a
+        # run stopped in between resumes from the previous step, which needs its state
+        keep = {self._state_path(k), self._state_path(k - self.every)}
         for q in self.out.glob("reservoir_state_*.npz"):
-            if q != self._state_path(k):
+            if q not in keep:
                 q.unlink()
 
     def _resume(self):
