@@ -306,60 +306,6 @@ def test_sparse_factor_ldl_and_lu_paths(symmetric_matrix):
         assert not G.ldl and F.nnz < 0.6 * G.nnz
 
 
-def test_supernodal_blocks_reproduce_the_column_factor():
-    """The supernodal L (``supernodal.Supernodal``) of a 2-DOF-per-node SPD matrix (so that
-    supernodes of width 1, 2, 3-7 and >= WIDE all occur: every branch of the kernels) gives
-    the same triangular solves as the column-compressed L it was built from, to 1e-13 relative
-    (round-off: the sums are associated differently); the partial solves on the closure of a
-    few columns equal the whole solves there exactly where they must (forward: every entry;
-    backward: at the columns asked for) to the same tolerance."""
-    import scipy.sparse as sp
-    import scipy.sparse.linalg as spl
-    from scipy.linalg import solve_triangular
-    from ngs_driver.solve import supernodal as snm
-    lap = _grid_laplacian(16, shift=0.05)
-    A = sp.csc_matrix(sp.kron(lap, np.array([[2.0, 0.5], [0.5, 1.0]])))
-    lu = spl.splu(A, permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0,
-                  options=dict(SymmetricMode=True))
-    L = lu.L.tocsc()
-    L.sort_indices()
-    D = lu.U.diagonal()
-    S = snm.Supernodal(L.indptr.astype(np.int32), L.indices.astype(np.int32), L.data, D)
-    widths = set(np.diff(S.start).tolist())
-    assert {1, 2} <= widths and any(3 <= w < snm.WIDE for w in widths)
-    assert max(widths) >= snm.WIDE
-    n = A.shape[0]
-    Ld = L.toarray()
-    rng = np.random.default_rng(5)
-    b = rng.standard_normal((n, 2))
-    y_ref = solve_triangular(Ld, b, lower=True, unit_diagonal=True)
-    z_ref = solve_triangular(Ld.T, b / D[:, None], lower=False, unit_diagonal=True)
-    y = np.ascontiguousarray(b[:, 0])
-    S.forward(y)
-    assert np.abs(y - y_ref[:, 0]).max() <= 1e-13 * np.abs(y_ref).max()
-    z = np.ascontiguousarray(b[:, 0])
-    S.backward(z)
-    assert np.abs(z - z_ref[:, 0]).max() <= 1e-13 * np.abs(z_ref).max()
-    Y = b.copy()
-    S.forward(Y)
-    assert np.abs(Y - y_ref).max() <= 1e-13 * np.abs(y_ref).max()
-    Z = b.copy()
-    S.backward(Z)
-    assert np.abs(Z - z_ref).max() <= 1e-13 * np.abs(z_ref).max()
-    cols = np.sort(rng.choice(n, 7, replace=False))
-    sl = S.closure(cols)
-    assert 0 < sl.size < S.all.size
-    bp = np.zeros(n)
-    bp[cols] = rng.standard_normal(7)
-    yp = bp.copy()
-    S.forward(yp, sl)
-    yf = solve_triangular(Ld, bp, lower=True, unit_diagonal=True)
-    assert np.abs(yp - yf).max() <= 1e-13 * np.abs(yf).max()
-    zp = b[:, 1].copy()
-    S.backward(zp, sl)
-    assert np.abs(zp[cols] - z_ref[cols, 1]).max() <= 1e-13 * np.abs(z_ref).max()
-
-
 def test_forget_jacobian_makes_a_restart_bitwise(model):
     """A solver restarted from the committed fields and state of step 15 (a fresh solver, as
     after a checkpoint) continues bit for bit like the original one, and factorises and reuses

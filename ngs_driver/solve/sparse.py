@@ -1,7 +1,6 @@
 """Sparse direct factorisation for the interface solver: SuperLU (scipy.sparse.linalg.splu) for
-the factorisation, and numba triangular solves on its factors (SuperLU's own solve is 2-4x
-slower from Python on these matrices; measured in docs/decisions.md §6): supernodal L and D
-for SPD matrices (``supernodal``), column-compressed L and U otherwise.
+the factorisation, and numba triangular solves on its L and U factors (SuperLU's own solve is
+2-4x slower from Python on these matrices; measured in docs/decisions.md §6).
 
     Pr A Pc = L U     (scipy's convention: Pr[perm_r[i], i] = 1, Pc[i, perm_c[i]] = 1)
 """
@@ -11,8 +10,6 @@ import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spl
 from numba import njit
-
-from .supernodal import Supernodal
 
 __all__ = ["SparseFactor"]
 
@@ -70,6 +67,27 @@ def _fwd_mat(Lp, Li, Lx, y):
 
 
 @njit(cache=True)
+def _ldl_solve(Lp, Li, Lx, Rp, Ri, Rx, D, perm, b, x, y):
+    """Solve A x = b, P A P^T = L D L^T (symmetric), b (n, k): y = P b; L z = y;
+    L^T w = D^-1 z (dot products down the columns of L, read from the reversed copy
+    (Rp, Ri, Rx), see ``_reversed``); x = P^T w."""
+    n, k = b.shape
+    _scatter_rows(perm, b, y)
+    _fwd_mat(Lp, Li, Lx, y)
+    for kk in range(n):
+        j = n - 1 - kk
+        d = D[j]
+        for r in range(k):
+            y[j, r] /= d
+        for q in range(Rp[kk], Rp[kk + 1]):
+            i = Ri[q]
+            lv = Rx[q]
+            for r in range(k):
+                y[j, r] -= lv * y[i, r]
+    _gather_rows(perm, y, x)
+
+
+@njit(cache=True)
 def _fwd1(Lp, Li, Lx, perm_r, b, y):
     """Forward half of a solve: y = L^-1 Pr b (permuted space)."""
     n = b.shape[0]
@@ -96,6 +114,44 @@ def _bwd1(Up, Ui, Ux, perm_c, z, x):
 
 
 @njit(cache=True)
+def _bwd1_ldl(Rp, Ri, Rx, D, perm, z, x):
+    """Backward half, symmetric: x = P^T L^-T D^-1 z, by dot products down the columns of L
+    taken last to first from the reversed copy (ascending addresses; z is overwritten)."""
+    n = z.shape[0]
+    for k in range(n):
+        j = n - 1 - k
+        acc = z[j] / D[j]
+        for q in range(Rp[k], Rp[k + 1]):
+            acc -= Rx[q] * z[Ri[q]]
+        z[j] = acc
+    for i in range(n):
+        x[i] = z[perm[i]]
+
+
+@njit(cache=True)
+def _reversed(Lp, Li, Lx):
+    """L's columns last to first, off-diagonal entries only: column j = n-1-k is
+    Ri/Rx[Rp[k]:Rp[k+1]]. The backward half of a solve visits the columns in that order; read
+    from L itself it walks memory downwards, which the hardware prefetcher does not follow
+    (2.4-2.6 ms against 1.1 ms for the same arithmetic on the Koyna factor, measured)."""
+    n = Lp.shape[0] - 1
+    Rp = np.empty(n + 1, np.int32)
+    Rp[0] = 0
+    for k in range(n):
+        j = n - 1 - k
+        Rp[k + 1] = Rp[k] + (Lp[j + 1] - Lp[j] - 1)
+    Ri = np.empty(Rp[n], np.int32)
+    Rx = np.empty(Rp[n])
+    for k in range(n):
+        j = n - 1 - k
+        q0 = Lp[j] + 1
+        for t in range(Rp[k + 1] - Rp[k]):
+            Ri[Rp[k] + t] = Li[q0 + t]
+            Rx[Rp[k] + t] = Lx[q0 + t]
+    return Rp, Ri, Rx
+
+
+@njit(cache=True)
 def _fwd_part(Lp, Li, Lx, cols, rows_in, b, y):
     """L^-1 applied to right-hand sides supported on the rows ``rows_in`` (positions in the
     permuted space, b (len(rows_in), k)); only the columns ``cols`` (ascending: the closure of
@@ -118,22 +174,37 @@ def _fwd_part(Lp, Li, Lx, cols, rows_in, b, y):
 
 
 @njit(cache=True)
-def _bwd_part(Urp, Urj, Urx, rows, z, w):
+def _bwd_part(Urp, Urj, Urx, D, rows, z, w):
     """U^-1 z on the positions ``rows`` only (descending; closed under the row structure of U,
-    so every entry they need is among them); U by rows with its diagonal first in each row."""
+    so every entry they need is among them). U by rows with its diagonal first in each row
+    (D None); or, symmetric, U = D L^T: row j of U is D[j] times column j of L, passed as the
+    reversed copy of L (``_reversed``) with ``rows`` given as k = n-1-j (ascending)."""
     k = z.shape[1]
+    n = z.shape[0]
     for a in range(rows.shape[0]):
-        j = rows[a]
-        for r in range(k):
-            w[j, r] = z[j, r]
-        for q in range(Urp[j] + 1, Urp[j + 1]):
-            i = Urj[q]
-            uv = Urx[q]
+        if D is None:
+            j = rows[a]
             for r in range(k):
-                w[j, r] -= uv * w[i, r]
-        d = Urx[Urp[j]]
-        for r in range(k):
-            w[j, r] /= d
+                w[j, r] = z[j, r]
+            for q in range(Urp[j] + 1, Urp[j + 1]):
+                i = Urj[q]
+                uv = Urx[q]
+                for r in range(k):
+                    w[j, r] -= uv * w[i, r]
+            d = Urx[Urp[j]]
+            for r in range(k):
+                w[j, r] /= d
+        else:
+            kk = rows[a]
+            j = n - 1 - kk
+            d = D[j]
+            for r in range(k):
+                w[j, r] = z[j, r] / d
+            for q in range(Urp[kk], Urp[kk + 1]):
+                i = Urj[q]
+                lv = Urx[q]
+                for r in range(k):
+                    w[j, r] -= lv * w[i, r]
 
 
 @njit(cache=True)
@@ -150,14 +221,23 @@ def _fwd_part1(Lp, Li, Lx, cols, rows_in, b, y):
 
 
 @njit(cache=True)
-def _bwd_part1(Urp, Urj, Urx, rows, z, w):
+def _bwd_part1(Urp, Urj, Urx, D, rows, z, w):
     """_bwd_part for one right-hand side (z, w (n,))."""
+    n = z.shape[0]
     for a in range(rows.shape[0]):
-        j = rows[a]
-        acc = z[j]
-        for q in range(Urp[j] + 1, Urp[j + 1]):
-            acc -= Urx[q] * w[Urj[q]]
-        w[j] = acc / Urx[Urp[j]]
+        if D is None:
+            j = rows[a]
+            acc = z[j]
+            for q in range(Urp[j] + 1, Urp[j + 1]):
+                acc -= Urx[q] * w[Urj[q]]
+            w[j] = acc / Urx[Urp[j]]
+        else:
+            kk = rows[a]
+            j = n - 1 - kk
+            acc = z[j] / D[j]
+            for q in range(Urp[kk], Urp[kk + 1]):
+                acc -= Urx[q] * w[Urj[q]]
+            w[j] = acc
 
 
 @njit(cache=True)
@@ -190,11 +270,11 @@ class SparseFactor:
 
     symmetric=True: SuperLU with MMD ordering on A^T + A, symmetric mode, no pivoting (the
     effective matrices of the condensed method are SPD): then perm_r = perm_c = P and
-    U = D L^T to round-off, so U is not kept (P A P^T = L D L^T), and L is kept in supernodal
-    storage (``supernodal.Supernodal``; issue #15, measured in BENCHMARKS.md): the backward
-    half takes its dot products down the same blocks the forward half reads.
-    If SuperLU pivoted anyway, L is not unit, or U is not D L^T to 1e-10, the general LU is kept.
-    symmetric=False: partial pivoting, L and U (column-compressed).
+    U = D L^T to round-off, so U is not kept (P A P^T = L D L^T): the backward half takes dot
+    products down the columns of L, last column first, read from a reversed copy of L so that
+    both halves stream memory upwards (``_reversed``; issue #15, measured in BENCHMARKS.md).
+    If SuperLU pivoted anyway, or U is not D L^T to 1e-10, the general LU is kept.
+    symmetric=False: partial pivoting, L and U.
     ``solve(b)`` accepts (n,) or (n, k).  ``fast=False`` uses SuperLU's own solve.
     """
 
@@ -208,22 +288,22 @@ class SparseFactor:
         self.shape = A.shape
         self.fast = fast
         self._part = None
-        self._sn = None
-        self._L = None
+        self._D = None
         self._U = None
+        self._R = None
         if fast:
             L = lu.L.tocsc()
             U = lu.U.tocsc()
             L.sort_indices()
             U.sort_indices()
+            # int32 indices (n, nnz < 2^31 here): a solve streams L (and U), a quarter less
+            self._L = (L.indptr.astype(np.int32), L.indices.astype(np.int32), L.data)
             self._pr = lu.perm_r.astype(np.int64)
             self._pc = lu.perm_c.astype(np.int64)
-            # int32 indices (n, nnz < 2^31 here): a solve streams L (and U), a quarter less
-            Lc = (L.indptr.astype(np.int32), L.indices.astype(np.int32), L.data)
             if symmetric and np.array_equal(self._pr, self._pc) and _is_dlt(L, U):
-                self._sn = Supernodal(*Lc, U.diagonal())
+                self._D = U.diagonal().copy()
+                self._R = _reversed(*self._L)
             else:
-                self._L = Lc
                 self._U = (U.indptr.astype(np.int32), U.indices.astype(np.int32), U.data)
             self._lu = None                  # SuperLU's own copy of the factors is not kept
         else:
@@ -231,17 +311,15 @@ class SparseFactor:
 
     @property
     def ldl(self) -> bool:
-        """True when only L (supernodal) and D are kept (P A P^T = L D L^T)."""
-        return self._sn is not None
+        """True when only L and D are kept (P A P^T = L D L^T)."""
+        return self._D is not None
 
     @property
     def nnz(self) -> int:
-        """Stored factor entries (L and U; or L's blocks without its unit diagonal, and D)."""
+        """Stored factor entries (L and U, or L and D)."""
         if not self.fast:
             return -1
-        if self.ldl:
-            return self._sn.nnz
-        return int(self._L[2].size + self._U[2].size)
+        return int(self._L[2].size + (self._D.size if self.ldl else self._U[2].size))
 
     def solve(self, b):
         if not self.fast:
@@ -253,10 +331,7 @@ class SparseFactor:
         x = np.empty_like(b2)
         y = np.empty_like(b2)
         if self.ldl:
-            _scatter_rows(self._pr, b2, y)
-            self._sn.forward(y)
-            self._sn.backward(y)
-            _gather_rows(self._pc, y, x)
+            _ldl_solve(*self._L, *self._R, self._D, self._pr, b2, x, y)
         else:
             _lu_solve(*self._L, *self._U, self._pr, self._pc, b2, x, y)
         return x
@@ -271,28 +346,26 @@ class SparseFactor:
         if not self.fast:
             raise ValueError("SparseFactor.restrict needs fast=True")
         dofs = np.asarray(dofs, np.int64)
-        rin = self._pr[dofs]
-        qout = self._pc[dofs]
-        if self.ldl:                          # one list of supernodes serves both halves
-            sl = self._sn.closure(rin)
-            self._part = dict(dofs=dofs, rin=rin, qout=qout, sl=sl)
-            return self
         Lp, Li, _ = self._L
+        rin = self._pr[dofs]
         fcols = np.flatnonzero(_closure(Lp, Li, rin))
-        Up, Ui, Ux = self._U
-        Ur = sp.csc_matrix((Ux, Ui, Up), shape=self.shape).tocsr()
-        Ur.sort_indices()
-        Ur = (Ur.indptr.astype(np.int32), Ur.indices.astype(np.int32), Ur.data)
-        brows = np.flatnonzero(_closure(Ur[0], Ur[1], qout))[::-1].copy()
+        n = self.shape[0]
+        if self.ldl:                          # row j of U = D_j L[:, j]^T: L's own columns
+            brows = n - 1 - np.flatnonzero(_closure(Lp, Li, self._pc[dofs]))[::-1]
+            Ur = self._R                      # ... read from the reversed copy, k = n-1-j
+        else:
+            Up, Ui, Ux = self._U
+            Ur = sp.csc_matrix((Ux, Ui, Up), shape=self.shape).tocsr()
+            Ur.sort_indices()
+            Ur = (Ur.indptr.astype(np.int32), Ur.indices.astype(np.int32), Ur.data)
+            brows = np.flatnonzero(_closure(Ur[0], Ur[1], self._pc[dofs]))[::-1].copy()
+        qout = self._pc[dofs]
         self._part = dict(dofs=dofs, rin=rin, fcols=fcols, Ur=Ur, qout=qout, brows=brows)
         return self
 
     def partial_fraction(self) -> tuple[float, float]:
         """Share of L's and of U's entries that the partial forward / backward solves visit."""
         pt = self._part
-        if self.ldl:
-            f = self._sn.entries(pt["sl"]) / max(self._sn.entries(self._sn.all), 1)
-            return f, f
         Lp = self._L[0]
         Urp = pt["Ur"][0]
         f = float(np.sum(Lp[pt["fcols"] + 1] - Lp[pt["fcols"]])) / self._L[2].size
@@ -303,56 +376,42 @@ class SparseFactor:
         """z = L^-1 Pr b (the first half of ``solve``; permuted space)."""
         b = np.asarray(b, dtype=np.float64)
         z = np.empty_like(b)
-        if self.ldl:
-            z[self._pr] = b
-            self._sn.forward(z)
-        else:
-            _fwd1(*self._L, self._pr, b, z)
+        _fwd1(*self._L, self._pr, b, z)
         return z
 
     def backward(self, z):
         """x = Pc U^-1 z (the second half of ``solve``); z is not modified."""
         zz = np.array(z, dtype=np.float64)
-        if self.ldl:
-            self._sn.backward(zz)
-            return zz[self._pc]
         x = np.empty_like(zz)
-        _bwd1(*self._U, self._pc, zz, x)
+        if self.ldl:
+            _bwd1_ldl(*self._R, self._D, self._pc, zz, x)
+        else:
+            _bwd1(*self._U, self._pc, zz, x)
         return x
 
     def backward_at(self, z):
         """(Pc U^-1 z)[dofs] for z (n,) or (n, k), visiting only the closure of the dofs."""
         pt = self._part
-        if self.ldl:
-            w = np.array(z, dtype=np.float64, order="C")
-            self._sn.backward(w, pt["sl"])
-            return w[pt["qout"]]
         if z.ndim == 1:
             w = np.empty_like(z)
-            _bwd_part1(*pt["Ur"], pt["brows"], z, w)
+            _bwd_part1(*pt["Ur"], self._D, pt["brows"], z, w)
             return w[pt["qout"]]
         z2 = np.ascontiguousarray(z)
         w = np.empty_like(z2)
-        _bwd_part(*pt["Ur"], pt["brows"], z2, w)
+        _bwd_part(*pt["Ur"], self._D, pt["brows"], z2, w)
         return w[pt["qout"]]
 
     def forward_sparse(self, bd):
         """L^-1 Pr b for b zero outside ``dofs`` with b[dofs] = bd ((m,) or (m, k))."""
         pt = self._part
-        bd = np.asarray(bd, np.float64)
-        if self.ldl:
-            z = np.zeros((self.shape[0],) + bd.shape[1:])
-            z[pt["rin"]] = bd
-            self._sn.forward(z, pt["sl"])
-            return z
-        if bd.ndim == 1:
+        if np.ndim(bd) == 1:
             z = np.zeros(self.shape[0])
-            _fwd_part1(*self._L, pt["fcols"], pt["rin"], bd, z)
+            _fwd_part1(*self._L, pt["fcols"], pt["rin"], np.asarray(bd, np.float64), z)
             return z
-        b2 = np.ascontiguousarray(bd.reshape(pt["dofs"].size, -1))
+        b2 = np.ascontiguousarray(np.asarray(bd, np.float64).reshape(pt["dofs"].size, -1))
         z = np.zeros((self.shape[0], b2.shape[1]))
         _fwd_part(*self._L, pt["fcols"], pt["rin"], b2, z)
-        return z
+        return z[:, 0] if np.ndim(bd) == 1 else z
 
     def solve_at(self, bd):
         """(A^-1 b)[dofs] for b zero outside ``dofs`` (b[dofs] = bd, (m,) or (m, k))."""
@@ -360,9 +419,8 @@ class SparseFactor:
 
 
 def _is_dlt(L, U, rtol=1e-10) -> bool:
-    """L unit lower (exactly: the supernodal solve does not divide by its diagonal) and
-    U == D L^T to rtol of U's largest entry (same structure)."""
-    if L.nnz != U.nnz or not np.all(L.diagonal() == 1.0):
+    """U == D L^T to rtol of U's largest entry (same structure); L unit lower."""
+    if L.nnz != U.nnz:
         return False
     d = U.diagonal()
     if not np.all(np.isfinite(d)) or np.any(d == 0.0):
