@@ -276,12 +276,11 @@ class EnergyBudget:
                 "energy_acc": np.array([self.W_ext, self.E_damp, self.E_scaling])}
 
     def restore(self, arrs):
-        n = self._km.n
-        self._prev = tuple(_vec(arrs[f"energy_prev_{x}"], n).copy() for x in "uvf")
+        self._prev = tuple(_vec(arrs[f"energy_prev_{x}"], self._km.n).copy() for x in "uvf")
         r = arrs["energy_ref"]
-        n = len(self.joints.names)
-        self._ref = (float(r[0]), float(r[1]), [float(x) for x in r[2:2 + n]],
-                     [float(x) for x in r[2 + n:2 + 2 * n]])
+        nj = len(self.joints.names)
+        self._ref = (float(r[0]), float(r[1]), [float(x) for x in r[2:2 + nj]],
+                     [float(x) for x in r[2 + nj:2 + 2 * nj]])
         self.W_ext, self.E_damp, self.E_scaling = (float(x) for x in arrs["energy_acc"])
         u0, v0, _ = self._prev              # the products the run had (bitwise the same)
         self._prods = self._km.products(u0, v0)
