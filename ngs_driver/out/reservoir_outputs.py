@@ -15,7 +15,7 @@ import pathlib
 
 import numpy as np
 
-from .files import atomic_write_text
+from .files import atomic_savez, atomic_write_text
 
 FRACTIONS = (0.0, 0.25, 0.5, 0.75, 0.9)      # elevations / level at which p is written
 
@@ -68,9 +68,7 @@ class ReservoirRun:
         arrs = {f"rows_{key}": np.asarray(v) for key, v in self.rows.items()}
         if self.stepper is not None:
             arrs.update({f"fluid_{key}": v for key, v in self.stepper.state().items()})
-        tmp = self.out / f".reservoir_state_{k:07d}.tmp.npz"
-        np.savez(tmp, **arrs)
-        tmp.replace(self._state_path(k))
+        atomic_savez(self._state_path(k), **arrs)
         # the state of the previous checkpoint stays until the next save: this one is saved
         # before the run's checkpoint.json commits step k (written in the background), and a
         # run stopped in between resumes from the previous step, which needs its state
