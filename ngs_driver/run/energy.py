@@ -33,6 +33,8 @@ import numpy as np
 import scipy.sparse as sp
 from numba import njit
 
+from ..solve.products import FusedPair, pair_products
+
 __all__ = ["EnergyBudget", "stored_energy", "ENERGY_KEYS"]
 
 ENERGY_KEYS = ("W_ext", "E_kin", "E_bulk", "E_damp", "E_stored", "E_diss", "E_scaling",
@@ -65,54 +67,6 @@ def _symmetric(A) -> bool:
     return d.nnz == 0 or float(d.max()) <= 1e-13 * float(abs(A).max())
 
 
-class FusedKM:
-    """K u and M v in one pass over the union of their sparsity patterns (issue #15).
-
-    Both value arrays are laid out on one CSR pattern (zeros where a matrix has no entry), so
-    the row loop reads the pattern once for both products. Each row is summed in the stored
-    column order, like scipy's ``csr_matvec``: for canonical K and M (sorted, no duplicates)
-    the products are bitwise scipy's ``K @ u`` and ``M @ v`` (an inserted zero adds +-0, which
-    changes no partial sum; the sum starts at +0 as scipy's does). Indices are unsigned (no
-    negative-index wraparound test in the compiled loop: ~1.5x faster than int32)."""
-
-    def __init__(self, K, M):
-        K, M = _canonical(K), _canonical(M)
-        if K.shape != M.shape or K.shape[0] != K.shape[1]:
-            raise ValueError(f"K {K.shape} and M {M.shape}: square matrices of one shape")
-        n = K.shape[0]
-        kk, km = _keys(K), _keys(M)
-        keys = np.union1d(kk, km)                   # sorted: row-major, columns ascending
-        rows = keys // n
-        self.n = n
-        self.indptr = np.searchsorted(rows, np.arange(n + 1)).astype(np.uint64)
-        self.indices = (keys - rows * n).astype(np.uint32)
-        self.Kx = np.zeros(keys.size)
-        self.Kx[np.searchsorted(keys, kk)] = K.data
-        self.Mx = np.zeros(keys.size)
-        self.Mx[np.searchsorted(keys, km)] = M.data
-
-    def products(self, u, v):
-        """(M v, K u) as new arrays."""
-        Ku, Mv = np.empty(self.n), np.empty(self.n)
-        _km_products(self.indptr, self.indices, self.Kx, self.Mx, _vec(u, self.n),
-                     _vec(v, self.n), Ku, Mv)
-        return Mv, Ku
-
-
-def _canonical(A):
-    A = sp.csr_matrix(A)
-    if not A.has_canonical_format:
-        A = A.copy()
-        A.sum_duplicates()                         # sorted indices, duplicates summed
-    return A
-
-
-def _keys(A):
-    """row * n + column of every stored entry, in the stored (row-major) order."""
-    rows = np.repeat(np.arange(A.shape[0], dtype=np.int64), np.diff(A.indptr))
-    return rows * A.shape[1] + A.indices.astype(np.int64)
-
-
 def _vec(x, n):
     x = np.ascontiguousarray(x, dtype=np.float64)
     if x.shape != (n,):
@@ -121,24 +75,11 @@ def _vec(x, n):
 
 
 @njit(cache=True)
-def _km_products(indptr, indices, Kx, Mx, u, v, Ku, Mv):
-    for i in range(Ku.size):
-        a = 0.0
-        b = 0.0
-        for jj in range(indptr[i], indptr[i + 1]):
-            j = indices[jj]
-            a += Kx[jj] * u[j]
-            b += Mx[jj] * v[j]
-        Ku[i] = a
-        Mv[i] = b
-
-
-@njit(cache=True)
 def _km_step(indptr, indices, Kx, Mx, u, v, f, u0, v0, f0, Ku0, Mv0, Ku, Mv, du, fs, ms, vs, kd):
-    """One step of the budget: Ku, Mv (``_km_products``), then the vectors its dot products
+    """One step of the budget: Ku, Mv (``solve.products.pair_products``), then the vectors its dot products
     need, du = u - u0, fs = f0 + f, ms = Mv0 + Mv, vs = v0 + v, kd = Ku - Ku0 (numpy's
     elementwise operations, in one loop), and u0, v0, f0 <- u, v, f."""
-    _km_products(indptr, indices, Kx, Mx, u, v, Ku, Mv)
+    pair_products(indptr, indices, Kx, Mx, u, v, Ku, Mv)
     for i in range(Ku.size):
         du[i] = u[i] - u0[i]
         fs[i] = f0[i] + f[i]
@@ -169,14 +110,14 @@ class EnergyBudget:
         if C is not None and rayleigh is not None and _symmetric(K) and _symmetric(M):
             self._split = (float(rayleigh[0]), float(rayleigh[1]), C_extra)
         self._prods = None                # (M v, K u) of the previous state
-        self._km = FusedKM(K, M)
+        self._km = FusedPair(K, M)          # (K u, M v) in one pass
         n = self._km.n
         self._next = (np.empty(n), np.empty(n))          # buffers of the next (M v, K u)
         self._work = np.empty((5, n))                    # du, fs, ms, vs, kd of a step
 
     def _levels(self, u, v, t, g, state, Mv=None, Ku=None, scan=None):
         if Mv is None:
-            Mv, Ku = self._km.products(u, v)
+            Ku, Mv = self._km.products(_vec(u, self._km.n), _vec(v, self._km.n))
         stored, diss = self._joint_levels(t, g, state, scan)
         return (0.5 * float(v @ Mv), 0.5 * float(u @ Ku), stored, diss)
 
@@ -206,7 +147,8 @@ class EnergyBudget:
     def start(self, u, v, f, t, g, state):
         n = self._km.n
         self._prev = tuple(_vec(x, n).copy() for x in (u, v, f))
-        self._prods = self._km.products(u, v)
+        Ku, Mv = self._km.products(_vec(u, n), _vec(v, n))
+        self._prods = (Mv, Ku)
         self._ref = self._levels(u, v, t, g, state, *self._prods)
         self.W_ext = 0.0
         self.E_damp = 0.0
@@ -236,7 +178,7 @@ class EnergyBudget:
         u, v, f = _vec(u, n), _vec(v, n), _vec(f, n)
         du, fs, ms, vs, kd = self._work
         km = self._km
-        _km_step(km.indptr, km.indices, km.Kx, km.Mx, u, v, f, u0, v0, f0, Ku0, Mv0, Ku, Mv,
+        _km_step(km.indptr, km.indices, km.Ax, km.Bx, u, v, f, u0, v0, f0, Ku0, Mv0, Ku, Mv,
                  du, fs, ms, vs, kd)
         self.W_ext += 0.5 * float(du @ fs)
         if self._split is not None:
@@ -283,4 +225,5 @@ class EnergyBudget:
                      [float(x) for x in r[2 + nj:2 + 2 * nj]])
         self.W_ext, self.E_damp, self.E_scaling = (float(x) for x in arrs["energy_acc"])
         u0, v0, _ = self._prev              # the products the run had (bitwise the same)
-        self._prods = self._km.products(u0, v0)
+        Ku, Mv = self._km.products(_vec(u0, self._km.n), _vec(v0, self._km.n))
+        self._prods = (Mv, Ku)
