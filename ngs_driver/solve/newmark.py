@@ -25,7 +25,8 @@ phi != 0), exact Jacobian I + c S W (T - K0) (T - K0 = 0 at inactive points). S 
 B_I = G Delta (Delta: the relative displacements of the paired dam/rock interface DOFs, r of
 them: 224 on the default Koyna mesh whatever the number of interface points; G sparse), so
 S = G Y G^T with Y = Delta (A^-1)_II Delta^T (r x r, from r partial solves once per h) and the
-Newton direction comes from an r x r LU by the push-through identity (``_jac_solve``). A^-1 rhs
+Newton direction comes from the r x r system Y^-1 + G^T Dw G by the push-through identity
+(``_jac_solve``), solved by GMRES on an earlier LU or factorised. A^-1 rhs
 is split in its triangular halves so that a nonlinear step costs one forward and one backward
 sparse solve plus the closure of the interface DOFs (``SparseFactor.restrict``;
 docs/decisions.md §6, issue #15).
@@ -45,53 +46,37 @@ import scipy.sparse.linalg as spl
 from numba import njit
 
 from .joint_laws import initial_stiffness, reference_gap
+from .krylov import gmres_lu, lu_solve_into
+from .products import FusedPair, pair_products
 from .sparse import SparseFactor
 
 __all__ = ["NewmarkSolver", "StepReport", "SolverError", "SparseFactor"]
 
 
-def _getrs(lu, b):
-    """LAPACK getrs on a scipy ``lu_factor`` result (without lu_solve's Python overhead)."""
-    x, info = sla.lapack.dgetrs(lu[0], lu[1], b)
-    if info != 0:
-        raise np.linalg.LinAlgError(f"dgetrs info {info}")
-    return x
+# Newton directions with an earlier LU of the r x r interface system (``_jac_solve``):
+# GMRES right-preconditioned by it (solve/krylov.py) to this true relative residual (a direct
+# LU solve of the 224 x 224 Koyna system leaves ~1e-15), at most _GMRES_MAX iterations, after
+# which the system is factorised afresh; after a solve that needed more than _GMRES_REFRESH
+# iterations the LU is dropped so that the next solve factorises (a factorisation costs
+# ~15 iterations on Koyna). Chosen on 4 057 captured solves of the 0.2x Koyna run's first
+# 3 s (docs/decisions.md §6): per solve ~230 us against ~700 us by refinement on the LU
+# of K = I + P Y (the second round), factorisations 408 against 2 008.
+_GMRES_TOL = 1e-13
+_GMRES_MAX = 16
+_GMRES_REFRESH = 8
 
 
-# iterative refinement of K^-1 v with an earlier LU (``NewmarkSolver._jac_solve``): stop at a
-# residual of this relative size (a direct LU solve of the 224 x 224 Koyna K leaves ~1e-15);
-# give up as soon as the observed contraction predicts more than _REFINE_MAX sweeps in all
-# (a sweep costs ~1/8 of forming and factorising K on Koyna: measured 0.1 against 0.8 ms;
-# 9 against 5 and 7: 0.2x Koyna steps 11-30 from t = 2 s 4.15 / 4.79 / 4.40 ms, 4.6k DOFs
-# 2.82 / 3.32 / 2.90 ms, the same over 200 steps, the run's first 4 s 4 % shorter)
-_REFINE_TOL = 1e-13
-_REFINE_MAX = 9
-
-
-def _refine(lu, Kmul, v):
-    """x with |K x - v| <= _REFINE_TOL |v| (``Kmul(x)`` = K x) by iterative refinement on the
-    LU of a nearby matrix, or None when it does not contract fast enough (then K is
-    factorised)."""
-    vn = np.linalg.norm(v)
-    if not np.isfinite(vn):
-        return None
-    if vn == 0.0:
-        return np.zeros_like(v)
-    x = _getrs(lu, v)
-    rn_prev = vn                       # the residual of x = 0
-    for k in range(1, _REFINE_MAX + 1):
-        res = v - Kmul(x)
-        rn = np.linalg.norm(res)
-        if not np.isfinite(rn):
-            return None
-        if rn <= _REFINE_TOL * vn:
-            return x
-        q = rn / rn_prev               # contraction of this sweep
-        if q >= 0.25 or k + math.log(_REFINE_TOL * vn / rn) / math.log(q) > _REFINE_MAX:
-            return None
-        x = x + _getrs(lu, res)
-        rn_prev = rn
-    return None
+@njit(cache=True)
+def _rhs_fused(indptr, indices, Mx, Cx, u, v, a, cm, cc, c, f, x, y, om, oc, rhs):
+    """rhs = M (cm0 u + cm1 v + cm2 a) + c C (cc0 u + cc1 v + cc2 a) + f, bitwise numpy's
+    ``NewmarkSolver._rhs`` (the same operations in the same order; the two products on one
+    pattern, ``products.pair_products``)."""
+    for i in range(u.size):
+        x[i] = cm[0] * u[i] + cm[1] * v[i] + cm[2] * a[i]
+        y[i] = cc[0] * u[i] + cc[1] * v[i] + cc[2] * a[i]
+    pair_products(indptr, indices, Mx, Cx, x, y, om, oc)
+    for i in range(u.size):
+        rhs[i] = (om[i] + c * oc[i]) + f[i]
 
 
 @njit(cache=True)
@@ -231,8 +216,9 @@ class _Cache:
     """Per-step-size data of the condensed method."""
     factor: SparseFactor
     Y: np.ndarray | None = None          # (r, r) Delta (A^-1)_II Delta^T, S = G Y G^T
+    Yinv: np.ndarray | None = None       # Y^-1 (symmetric): the Newton system is Y^-1 + P
     Z: dict = field(default_factory=dict)  # point -> (ndof, 2) A^-1 B_p^T (few active points)
-    jac_lu: tuple | None = None          # LU of the last r x r Jacobian K factorised (reuse)
+    jac_lu: tuple | None = None          # (LU^T, pivots, P values) of the last Y^-1 + P factorised
     base: bool = True                    # the nominal step's entry (never evicted)
 
 
@@ -258,9 +244,9 @@ class NewmarkSolver:
     max_cache : number of step sizes whose factorisation/S columns are kept
     few_max : up to this many active points u_lin is formed whole and u recovered from cached
               columns A^-1 B_p^T (one solve per step, as a linear step); more: split solve
-    jacobian_reuse : solve the r x r Newton system by iterative refinement on the LU of the
-              last one factorised (same step size) while that contracts fast; else factorise
-              (the direction is the same to round-off: relative residual 1e-13)
+    jacobian_reuse : solve the r x r Newton system by GMRES preconditioned with the LU of the
+              last one factorised (same step size) when that converges in a few iterations;
+              else factorise (the direction is the same to round-off: relative residual 1e-13)
     """
 
     def __init__(self, K, M, C, B, w, law, *, dt, beta=None, gamma=None, alpha_hht=0.0,
@@ -298,7 +284,8 @@ class NewmarkSolver:
         self.few_max = int(few_max)
         self.active_tol = float(active_tol)
         self.jacobian_reuse = bool(jacobian_reuse)
-        self.stats = dict(jacobian_factorisations=0, jacobian_solves=0, jacobian_reuses=0)
+        self.stats = dict(jacobian_factorisations=0, jacobian_solves=0, jacobian_reuses=0,
+                          gmres_iterations=0)
         self.law = law
         self._set_k0(law)
         self._wd = np.repeat(self.w, 2)                     # W on the (2 npts) gap vector
@@ -309,6 +296,8 @@ class NewmarkSolver:
         self._G, self._Dt = _relative_dofs(self._BI)
         self._GT = self._G.T.tocsr()
         self._ptp = self._ptp_of = self._ptp_map = None   # G^T Dw G pattern (_ptp_pattern)
+        self._ptp_flat = None
+        self._gmres_wk = None
         self._cache: OrderedDict = OrderedDict()
         self._static_cache = None
         self._Minv = None
@@ -324,6 +313,9 @@ class NewmarkSolver:
         self._phi = np.zeros(2 * self.npts)                 # committed phi (condensed)
         self._active = np.zeros(self.npts, bool)
         self.history = []                                   # StepReport per call
+        # M x and C y of the right-hand side in one compiled pass (bitwise scipy's products)
+        self._mc = FusedPair(self.M, self.C) if self.C is not None else None
+        self._rhs_work = None
 
     # ------------------------------------------------------------------ set-up / parameters
     def _set_k0(self, law):
@@ -439,6 +431,11 @@ class NewmarkSolver:
             XD[:, k:k + 128] = e.factor.solve_at(Dt[:, k:k + 128].toarray())
         Y = np.asarray(Dt.T @ XD)
         e.Y = 0.5 * (Y + Y.T)                             # symmetric to round-off
+        try:                                              # SPD (A is): Cholesky
+            Yi = sla.cho_solve(sla.cho_factor(e.Y), np.eye(r))
+        except np.linalg.LinAlgError:
+            Yi = np.linalg.inv(e.Y)
+        e.Yinv = np.ascontiguousarray(0.5 * (Yi + Yi.T))
 
     def _phi_mask(self, phi, g):
         """Points whose correction phi is not round-off of K0 g."""
@@ -450,6 +447,18 @@ class NewmarkSolver:
         c0, c1, c2, c3, c4, c5 = self._coeffs(h)
         al = self.alpha_hht
         c = 1.0 + al
+        if self._mc is not None and al == 0.0:
+            mc = self._mc
+            if self._rhs_work is None:
+                self._rhs_work = np.empty((4, self.ndof))
+            x, y, om, oc = self._rhs_work
+            rhs = np.empty(self.ndof)
+            _rhs_fused(mc.indptr, mc.indices, mc.Ax, mc.Bx, self.u, self.v, self.a,
+                       np.array([c0, c2, c3]), np.array([c1, c4, c5]), c,
+                       np.ascontiguousarray(f_next, dtype=np.float64), x, y, om, oc, rhs)
+            if getattr(self, "ext", None) is not None:
+                rhs += self.ext.rhs(h)
+            return rhs
         rhs = self.M @ (c0 * self.u + c2 * self.v + c3 * self.a)
         if self.C is not None:
             rhs += c * (self.C @ (c1 * self.u + c4 * self.v + c5 * self.a))
@@ -622,13 +631,15 @@ class NewmarkSolver:
         relative displacements of the interface nodes, r = 224 on the default Koyna mesh,
         whatever the number of interface points):
 
-            J^-1 b = b - G Y K^-1 G^T Dw b,      K = I_r + (G^T Dw G) Y   (r x r, dense),
+            J^-1 b = b - G Y K^-1 G^T Dw b = b - G H^-1 G^T Dw b,
+            K = I_r + P Y,   H = K Y^-1 = Y^-1 + P,   P = G^T Dw G   (r x r)
 
-        (push-through identity, exact). G^T Dw G is sparse; nothing of size (2 npts)^2.
-        K^-1 v: with ``jacobian_reuse`` the LU of the last K factorised for this step size
-        (an earlier iteration or step) is tried first, by iterative refinement to the relative
-        residual ``_REFINE_TOL`` (round-off of a direct solve); when the contraction observed
-        predicts more than ``_REFINE_MAX`` sweeps, K is factorised afresh.
+        (push-through identity, exact). P is sparse and H is Y^-1 (kept per step size) plus P:
+        nothing of size (2 npts)^2, and no r x r product. H^-1 v: with ``jacobian_reuse``
+        GMRES preconditioned by the LU of the last H factorised for this step size (an
+        earlier iteration or step) is tried first, to the true relative residual
+        ``_GMRES_TOL`` (round-off of a direct solve) in at most ``_GMRES_MAX`` iterations;
+        otherwise H is factorised afresh (solve/krylov.py).
         Few active points (2 m < r, the gap DOFs ``ad``): the same identity on their columns,
         J^-1 b = b - S_:a (I + Dw_a S_aa)^-1 Dw_a b_a with S_:a = G Y G_a^T (2m x 2m system)."""
         self.stats["jacobian_solves"] += 1
@@ -647,29 +658,47 @@ class NewmarkSolver:
                 raise np.linalg.LinAlgError("interface Jacobian: non-finite solution")
             return x
         Dw = E * (c * self.w)[:, None, None]                       # (npts, 2, 2)
-        # P = G^T Dw G sparse (r x r, banded; its values scattered by a map built once);
-        # K = I + P Y is only formed to be factorised: refinement needs K x = x + P (Y x)
+        # P = G^T Dw G sparse (r x r, banded; its values scattered by a map built once)
         P = self._ptp_pattern()
         _ptp_values(*self._ptp_map, self._G.data, Dw, P.data)
         v = _mv(self._GT, _block_mul(Dw, b))
-        z = None
+        r = v.shape[0]
+        z = np.empty(r)
+        ok = False
         if self.jacobian_reuse and e.jac_lu is not None:
-            z = _refine(e.jac_lu, lambda x: x + _mv(P, e.Y @ x), v)
-            if z is not None:
+            luT, piv, p0 = e.jac_lu
+            wk = self._gmres_work(r)
+            its = gmres_lu(luT, piv, e.Yinv, P.indptr, P.indices, P.data, p0, v, _GMRES_TOL,
+                           _GMRES_MAX, z, *wk)
+            if its >= 0:
+                ok = True
                 self.stats["jacobian_reuses"] += 1
-        if z is None:
-            K = np.asarray(P @ e.Y)
-            K[np.diag_indices_from(K)] += 1.0
-            lu, piv, info = sla.lapack.dgetrf(K, overwrite_a=True)
+                self.stats["gmres_iterations"] += its
+                if its > _GMRES_REFRESH:                   # the next solve factorises
+                    e.jac_lu = None
+        if not ok:
+            H = e.Yinv.copy()
+            H.ravel()[self._ptp_flat] += P.data
+            lu, piv, info = sla.lapack.dgetrf(H, overwrite_a=True)
             if info != 0:
                 raise np.linalg.LinAlgError(f"interface Jacobian singular (dgetrf info {info})")
             self.stats["jacobian_factorisations"] += 1
-            e.jac_lu = (lu, piv)
-            z = _getrs(e.jac_lu, v)
-        x = b - _mv(self._G, e.Y @ z)
+            e.jac_lu = (np.ascontiguousarray(lu.T), piv.astype(np.int32), P.data.copy())
+            lu_solve_into(e.jac_lu[0], e.jac_lu[1], v, z)
+        x = b - _mv(self._G, z)
         if not np.all(np.isfinite(x)):
             raise np.linalg.LinAlgError("interface Jacobian: non-finite solution")
         return x
+
+    def _gmres_work(self, r):
+        """GMRES work arrays for an r x r system (allocated once; the kernel only writes)."""
+        wk = self._gmres_wk
+        if wk is None or wk[-1].shape[0] != r:
+            m = _GMRES_MAX
+            wk = (np.empty((m + 1, r)), np.empty((m, r)), np.empty((m + 1, m)), np.empty(m),
+                  np.empty(m), np.empty(m + 1), np.empty(r))
+            self._gmres_wk = wk
+        return wk
 
     def _ptp_pattern(self):
         """The (r x r) CSR pattern of G^T Dw G for block-diagonal Dw, and the map that scatters
@@ -687,6 +716,7 @@ class NewmarkSolver:
                                   rows.astype(np.int64) * r + cols)
             self._ptp, self._ptp_of = P, G
             self._ptp_map = (PT, A, Bk, Q1, Q2, pos)
+            self._ptp_flat = prow.astype(np.int64) * r + P.indices   # positions in r x r
         return self._ptp
 
     def _newton_full(self, h, rhs, c):
