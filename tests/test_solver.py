@@ -240,9 +240,9 @@ def test_relative_dof_jacobian_matches_full(model, paired):
 
 
 def test_jacobian_reuse_same_history(model):
-    """Newton directions by refinement on an earlier LU of the r x r system (jacobian_reuse)
-    give the history of fresh factorisations to 1e-9 of the largest displacement (the
-    directions agree to the refinement tolerance 1e-13; the converged steps to the Newton
+    """Newton directions by GMRES on an earlier LU of the r x r system (jacobian_reuse) give
+    the history of fresh factorisations to 1e-9 of the largest displacement (the directions
+    agree to the GMRES tolerance 1e-13 on the true residual; the converged steps to the Newton
     tolerance 1e-11 each, over 30 steps); the reuse path is taken and saves factorisations."""
     law = weak_law()
     runs = {}
@@ -340,3 +340,41 @@ def test_forget_jacobian_makes_a_restart_bitwise(model):
     for key in ("jacobian_factorisations", "jacobian_reuses", "jacobian_solves"):
         assert a.stats[key] - before[key] == b.stats[key], key
     assert b.stats["jacobian_reuses"] > 0
+
+
+def test_gmres_on_an_earlier_lu_solves_to_the_true_residual():
+    """solve/krylov.gmres_lu on H = Hd + P preconditioned by the LU of Hd + P0: the solution's
+    true residual is <= 1e-13 |v| (the kernel's own check, re-measured here with numpy); a
+    small change of P (rank 6) converges in <= 7 iterations (GMRES: rank + 1); a large
+    full-rank change does not converge in 3 iterations (-1, the caller then factorises);
+    lu_solve_into solves the factorised system to round-off."""
+    import scipy.linalg as sla
+    import scipy.sparse as sp
+    from ngs_driver.solve.krylov import gmres_lu, lu_solve_into
+    rng = np.random.default_rng(4)
+    r = 60
+    Q = rng.standard_normal((r, r))
+    Hd = Q @ Q.T / r + np.eye(r)                      # SPD, as Y^-1
+    P = sp.random(r, r, density=0.08, random_state=rng, format="csr")
+    P.data = rng.standard_normal(P.nnz)
+    P0 = P.data.copy()
+    H0 = Hd + P.toarray()
+    lu, piv, _ = sla.lapack.dgetrf(H0)
+    luT, piv = np.ascontiguousarray(lu.T), piv.astype(np.int32)
+    v = rng.standard_normal(r)
+    z = np.empty(r)
+    lu_solve_into(luT, piv, v, z)
+    assert np.linalg.norm(H0 @ z - v) <= 1e-13 * np.linalg.norm(v)
+    m = 16
+    work = (np.empty((m + 1, r)), np.empty((m, r)), np.empty((m + 1, m)), np.empty(m),
+            np.empty(m), np.empty(m + 1), np.empty(r))
+    Px = P0.copy()
+    Px[:6] *= 1.5                                     # six entries: rank <= 6
+    its = gmres_lu(luT, piv, Hd, P.indptr, P.indices, Px, P0, v, 1e-13, m, z, *work)
+    H = Hd + sp.csr_matrix((Px, P.indices, P.indptr), shape=(r, r)).toarray()
+    assert 1 <= its <= 7
+    assert np.linalg.norm(H @ z - v) <= 1e-13 * np.linalg.norm(v)
+    Px = P0 + 3.0 * rng.standard_normal(P0.size)     # large, full-rank change
+    assert gmres_lu(luT, piv, Hd, P.indptr, P.indices, Px, P0, v, 1e-13, 3, z,
+                    *work[:2], np.empty((4, 3)), np.empty(3), np.empty(3), np.empty(4),
+                    work[-1]) == -1
