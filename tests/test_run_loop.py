@@ -349,3 +349,39 @@ def test_newmark_rhs_fused_is_numpy_bit_for_bit():
     s._mc = None                                 # the numpy / scipy path
     ref = s._rhs(1e-3, f)
     assert np.array_equal(fused, ref)
+
+
+def test_step_products_feed_the_budget_and_the_next_rhs_bit_for_bit():
+    """``NewmarkSolver.step_products`` (K u, M v of the committed state, and the next step's
+    M x, C y in the same pass) gives the energy budget the products it would form itself and
+    the next step the right-hand side it would form itself, bit for bit; a step of another
+    size (a cut) does not take the kept products."""
+    from ngs_driver.solve.newmark import NewmarkSolver
+    from ngs_driver.solve.products import FusedPair
+    import interfacelaw as il
+    rng = np.random.default_rng(13)
+    n = 200
+    K = sp.random(n, n, density=0.04, random_state=rng, format="csr")
+    K = (K + K.T + sp.diags(np.full(n, 5.0))).tocsr()
+    M = sp.diags(rng.random(n) + 1.0).tocsr()
+    C = (0.3 * M + 1e-3 * K).tocsr()
+    B = sp.csr_matrix((np.r_[1.0, -1.0, 1.0, -1.0], ([0, 0, 1, 1], [0, 1, 2, 3])), shape=(2, n))
+    law = il.InterfaceLaw(il.CohesiveParams.from_fracture_energy(3e6, 3e6, 100.0, 0.2, 1.0),
+                          il.ContactParams("linear"))
+    s = NewmarkSolver(K, M, C, B, np.ones(1), law, dt=1e-3)
+    s.u, s.v, s.a = (rng.standard_normal(n) * 10.0 ** rng.integers(-6, 3) for _ in range(3))
+    Ku, Mv = s.step_products()
+    Ku_ref, Mv_ref = FusedPair(K, M).products(s.u, s.v)      # the budget's own pass
+    assert np.array_equal(Ku, K @ s.u) and np.array_equal(Ku, Ku_ref)
+    assert np.array_equal(Mv, M @ s.v) and np.array_equal(Mv, Mv_ref)
+    f = rng.standard_normal(n)
+    kept = s._rhs(1e-3, f)                       # from the kept M x, C y
+    assert s._rhs_next is not None
+    s._rhs_next = None
+    assert np.array_equal(kept, s._rhs(1e-3, f))
+    s.step_products()
+    half = s._rhs(0.5e-3, f)                     # another step size: formed afresh
+    s._rhs_next = None
+    assert np.array_equal(half, s._rhs(0.5e-3, f))
+    s._mc = None
+    assert np.array_equal(kept, s._rhs(1e-3, f))  # and numpy's expression

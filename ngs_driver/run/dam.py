@@ -301,7 +301,10 @@ def _run(scene, outdir, resume, progress, max_steps, model, plots, log, freeze) 
             # the per-point work of the joints', energy's and safety's measures, once
             scan = joints.scan(st, solver.g, solver.t)
             jm = joints.measures(st, solver.g, scan)
-            en = energy.step(solver.u, solver.v, f_k, solver.t, solver.g, st, scan)
+            # K u, M v from the solver's pass that also forms the next step's right-hand side
+            # (the budget and the solver are built on the same model.K, model.M)
+            en = energy.step(solver.u, solver.v, f_k, solver.t, solver.g, st, scan,
+                             products=solver.step_products())
             hist.append(step=k, t=times[k], crest_ux=solver.u[cx], crest_uy=solver.u[cy],
                         iterations=rep.iterations, iterations_failed=rep.iterations_failed,
                         cuts=rep.cuts, substeps=len(rep.dts), n_active=rep.n_active,

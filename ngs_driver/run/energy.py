@@ -76,10 +76,17 @@ def _vec(x, n):
 
 @njit(cache=True)
 def _km_step(indptr, indices, Kx, Mx, u, v, f, u0, v0, f0, Ku0, Mv0, Ku, Mv, du, fs, ms, vs, kd):
-    """One step of the budget: Ku, Mv (``solve.products.pair_products``), then the vectors its dot products
-    need, du = u - u0, fs = f0 + f, ms = Mv0 + Mv, vs = v0 + v, kd = Ku - Ku0 (numpy's
-    elementwise operations, in one loop), and u0, v0, f0 <- u, v, f."""
+    """One step of the budget: Ku, Mv (``solve.products.pair_products``), then
+    ``_km_vectors``."""
     pair_products(indptr, indices, Kx, Mx, u, v, Ku, Mv)
+    _km_vectors(u, v, f, u0, v0, f0, Ku0, Mv0, Ku, Mv, du, fs, ms, vs, kd)
+
+
+@njit(cache=True)
+def _km_vectors(u, v, f, u0, v0, f0, Ku0, Mv0, Ku, Mv, du, fs, ms, vs, kd):
+    """The vectors the step's dot products need, du = u - u0, fs = f0 + f, ms = Mv0 + Mv,
+    vs = v0 + v, kd = Ku - Ku0 (numpy's elementwise operations, in one loop), and
+    u0, v0, f0 <- u, v, f."""
     for i in range(Ku.size):
         du[i] = u[i] - u0[i]
         fs[i] = f0[i] + f[i]
@@ -168,18 +175,24 @@ class EnergyBudget:
             self.E_scaling += float(np.dot(self.w[sl], stored_energy(old, t_old, gg, st)
                                            - stored_energy(new, t_new, gg, st)))
 
-    def step(self, u, v, f, t, g, state, scan=None) -> dict:
+    def step(self, u, v, f, t, g, state, scan=None, products=None) -> dict:
         """Book the step to the committed (u, v, f, t, g, state); scan: the ``JointScan`` of
-        (state, g, t) if the caller has it."""
+        (state, g, t) if the caller has it; products: (K u, M v) of this state if the caller
+        has them, bitwise those of the budget's K and M (``NewmarkSolver.step_products`` of
+        the solver built on the same K and M)."""
         u0, v0, f0 = self._prev                 # updated in place to u, v, f by the kernel
         Mv0, Ku0 = self._prods
-        Mv, Ku = self._next
         n = self._km.n
         u, v, f = _vec(u, n), _vec(v, n), _vec(f, n)
         du, fs, ms, vs, kd = self._work
-        km = self._km
-        _km_step(km.indptr, km.indices, km.Ax, km.Bx, u, v, f, u0, v0, f0, Ku0, Mv0, Ku, Mv,
-                 du, fs, ms, vs, kd)
+        if products is not None:
+            Ku, Mv = (_vec(x, n) for x in products)
+            _km_vectors(u, v, f, u0, v0, f0, Ku0, Mv0, Ku, Mv, du, fs, ms, vs, kd)
+        else:
+            Mv, Ku = self._next
+            km = self._km
+            _km_step(km.indptr, km.indices, km.Ax, km.Bx, u, v, f, u0, v0, f0, Ku0, Mv0, Ku,
+                     Mv, du, fs, ms, vs, kd)
         self.W_ext += 0.5 * float(du @ fs)
         if self._split is not None:
             a0, a1, C_extra = self._split
@@ -189,7 +202,10 @@ class EnergyBudget:
             self.E_damp += 0.5 * work
         elif self.C is not None:
             self.E_damp += 0.5 * float(du @ (self.C @ vs))
-        self._prods, self._next = (Mv, Ku), (Mv0, Ku0)     # the old products' buffers reused
+        if products is None:
+            self._prods, self._next = (Mv, Ku), (Mv0, Ku0)  # the old products' buffers reused
+        else:
+            self._prods = (Mv, Ku)
         kin, bulk, stored, diss = self._levels(u, v, t, g, state, Mv, Ku, scan)
         k0, b0, s0, d0 = self._ref
         row = {"W_ext": self.W_ext, "E_kin": kin - k0, "E_bulk": bulk - b0,

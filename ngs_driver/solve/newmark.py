@@ -47,7 +47,7 @@ from numba import njit
 
 from .joint_laws import initial_stiffness, reference_gap
 from .krylov import gmres_lu, lu_solve_into
-from .products import FusedPair, pair_products
+from .products import FusedPair, pair_products, step_products
 from .sparse import SparseFactor
 
 __all__ = ["NewmarkSolver", "StepReport", "SolverError", "SparseFactor"]
@@ -71,11 +71,23 @@ def _rhs_fused(indptr, indices, Mx, Cx, u, v, a, cm, cc, c, f, x, y, om, oc, rhs
     """rhs = M (cm0 u + cm1 v + cm2 a) + c C (cc0 u + cc1 v + cc2 a) + f, bitwise numpy's
     ``NewmarkSolver._rhs`` (the same operations in the same order; the two products on one
     pattern, ``products.pair_products``)."""
+    _rhs_vectors(u, v, a, cm, cc, x, y)
+    pair_products(indptr, indices, Mx, Cx, x, y, om, oc)
+    _rhs_combine(om, oc, c, f, rhs)
+
+
+@njit(cache=True)
+def _rhs_vectors(u, v, a, cm, cc, x, y):
+    """x = cm0 u + cm1 v + cm2 a, y = cc0 u + cc1 v + cc2 a (numpy's order)."""
     for i in range(u.size):
         x[i] = cm[0] * u[i] + cm[1] * v[i] + cm[2] * a[i]
         y[i] = cc[0] * u[i] + cc[1] * v[i] + cc[2] * a[i]
-    pair_products(indptr, indices, Mx, Cx, x, y, om, oc)
-    for i in range(u.size):
+
+
+@njit(cache=True)
+def _rhs_combine(om, oc, c, f, rhs):
+    """rhs = (M x + c C y) + f (numpy's order)."""
+    for i in range(rhs.size):
         rhs[i] = (om[i] + c * oc[i]) + f[i]
 
 
@@ -313,9 +325,11 @@ class NewmarkSolver:
         self._phi = np.zeros(2 * self.npts)                 # committed phi (condensed)
         self._active = np.zeros(self.npts, bool)
         self.history = []                                   # StepReport per call
-        # M x and C y of the right-hand side in one compiled pass (bitwise scipy's products)
-        self._mc = FusedPair(self.M, self.C) if self.C is not None else None
+        # M x and C y of the right-hand side in one compiled pass (bitwise scipy's products);
+        # K on the same pattern for ``step_products`` (the energy budget's K u, M v)
+        self._mc = FusedPair(self.M, self.C, self.K) if self.C is not None else None
         self._rhs_work = None
+        self._rhs_next = None            # (h, u, v, a, M x, C y) formed by step_products
 
     # ------------------------------------------------------------------ set-up / parameters
     def _set_k0(self, law):
@@ -449,13 +463,19 @@ class NewmarkSolver:
         c = 1.0 + al
         if self._mc is not None and al == 0.0:
             mc = self._mc
-            if self._rhs_work is None:
-                self._rhs_work = np.empty((4, self.ndof))
-            x, y, om, oc = self._rhs_work
             rhs = np.empty(self.ndof)
-            _rhs_fused(mc.indptr, mc.indices, mc.Ax, mc.Bx, self.u, self.v, self.a,
-                       np.array([c0, c2, c3]), np.array([c1, c4, c5]), c,
-                       np.ascontiguousarray(f_next, dtype=np.float64), x, y, om, oc, rhs)
+            f = np.ascontiguousarray(f_next, dtype=np.float64)
+            nx = self._rhs_next
+            if (nx is not None and nx[0] == h and nx[1] is self.u and nx[2] is self.v
+                    and nx[3] is self.a):                 # formed by step_products
+                _rhs_combine(nx[4], nx[5], c, f, rhs)
+            else:
+                if self._rhs_work is None:
+                    self._rhs_work = np.empty((4, self.ndof))
+                x, y, om, oc = self._rhs_work
+                _rhs_fused(mc.indptr, mc.indices, mc.Ax, mc.Bx, self.u, self.v, self.a,
+                           np.array([c0, c2, c3]), np.array([c1, c4, c5]), c, f, x, y, om,
+                           oc, rhs)
             if getattr(self, "ext", None) is not None:
                 rhs += self.ext.rhs(h)
             return rhs
@@ -878,6 +898,28 @@ class NewmarkSolver:
             self._static_cache.jac_lu = None
 
     # ------------------------------------------------------------------ diagnostics
+    def step_products(self):
+        """(K u, M v) of the committed state, bitwise scipy's ``K @ u`` and ``M @ v`` (the
+        energy budget's products), or None when the solver has no damping matrix or uses
+        HHT-alpha. The same compiled pass forms the right-hand-side products M x, C y of a
+        next step of size dt, which ``_rhs`` then takes instead of forming them (kept while
+        u, v, a are the same arrays: the committed fields are replaced, never modified in
+        place)."""
+        if self._mc is None or self.alpha_hht != 0.0:
+            return None
+        mc = self._mc
+        c0, c1, c2, c3, c4, c5 = self._coeffs(self.dt)
+        if self._rhs_work is None:
+            self._rhs_work = np.empty((4, self.ndof))
+        x, y = self._rhs_work[0], self._rhs_work[1]
+        _rhs_vectors(self.u, self.v, self.a, np.array([c0, c2, c3]), np.array([c1, c4, c5]),
+                     x, y)
+        Ku, Mv, Mx, Cy = (np.empty(self.ndof) for _ in range(4))
+        step_products(mc.indptr, mc.indices, mc.Ax, mc.Bx, mc.Cx, self.u, self.v, x, y, Ku,
+                      Mv, Mx, Cy)
+        self._rhs_next = (self.dt, self.u, self.v, self.a, Mx, Cy)
+        return Ku, Mv
+
     def energy(self):
         """Kinetic + elastic (bulk + interface at K0) energy of the committed state; exact
         stored energy only while the interface is elastic."""

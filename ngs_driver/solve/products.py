@@ -14,7 +14,7 @@ import numpy as np
 import scipy.sparse as sp
 from numba import njit
 
-__all__ = ["FusedPair", "pair_products"]
+__all__ = ["FusedPair", "pair_products", "step_products"]
 
 
 def _canonical(A):
@@ -45,26 +45,54 @@ def pair_products(indptr, indices, Ax, Bx, x, y, Axo, Byo):
         Byo[i] = b
 
 
-class FusedPair:
-    """A and B (square, one shape) on the union of their patterns: ``indptr`` (uint64),
-    ``indices`` (uint32), ``Ax``, ``Bx``; ``products(x, y)`` -> (A x, B y)."""
+@njit(cache=True)
+def step_products(indptr, indices, Mx, Cx, Kx, u, v, x, y, Ku, Mv, Mxo, Cyo):
+    """Ku = K u, Mv = M v, Mxo = M x, Cyo = C y on one pattern (``FusedPair(M, C, K)``'s
+    arrays): the energy budget's products of a committed state and the next Newmark step's
+    right-hand-side products, four independent sums per row."""
+    for i in range(Ku.size):
+        a = 0.0
+        b = 0.0
+        c = 0.0
+        d = 0.0
+        for jj in range(indptr[i], indptr[i + 1]):
+            j = indices[jj]
+            a += Kx[jj] * u[j]
+            b += Mx[jj] * v[j]
+            c += Mx[jj] * x[j]
+            d += Cx[jj] * y[j]
+        Ku[i] = a
+        Mv[i] = b
+        Mxo[i] = c
+        Cyo[i] = d
 
-    def __init__(self, A, B):
-        A, B = _canonical(A), _canonical(B)
-        if A.shape != B.shape or A.shape[0] != A.shape[1]:
-            raise ValueError(f"matrices of shapes {A.shape} and {B.shape}: square matrices of "
-                             "one shape are needed")
-        n = A.shape[0]
-        ka, kb = _keys(A), _keys(B)
-        keys = np.union1d(ka, kb)                   # sorted: row-major, columns ascending
+
+class FusedPair:
+    """A and B (square, one shape; and C if given) on the union of their patterns: ``indptr``
+    (uint64), ``indices`` (uint32), ``Ax``, ``Bx`` (``Cx``); ``products(x, y)`` ->
+    (A x, B y)."""
+
+    def __init__(self, A, B, C=None):
+        mats = [_canonical(X) for X in ((A, B) if C is None else (A, B, C))]
+        if any(X.shape != mats[0].shape for X in mats) or mats[0].shape[0] != mats[0].shape[1]:
+            raise ValueError(f"matrices of shapes {[X.shape for X in mats]}: square matrices "
+                             "of one shape are needed")
+        n = mats[0].shape[0]
+        ks = [_keys(X) for X in mats]
+        keys = ks[0]
+        for k in ks[1:]:
+            keys = np.union1d(keys, k)              # sorted: row-major, columns ascending
         rows = keys // n
         self.n = n
         self.indptr = np.searchsorted(rows, np.arange(n + 1)).astype(np.uint64)
         self.indices = (keys - rows * n).astype(np.uint32)
-        self.Ax = np.zeros(keys.size)
-        self.Ax[np.searchsorted(keys, ka)] = A.data
-        self.Bx = np.zeros(keys.size)
-        self.Bx[np.searchsorted(keys, kb)] = B.data
+        vals = []
+        for X, k in zip(mats, ks):
+            x = np.zeros(keys.size)
+            x[np.searchsorted(keys, k)] = X.data
+            vals.append(x)
+        self.Ax, self.Bx = vals[0], vals[1]
+        self.Cx = vals[2] if C is not None else None
 
     def products(self, x, y):
         """(A x, B y) as new arrays (x, y contiguous float64 (n,))."""
