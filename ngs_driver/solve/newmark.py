@@ -119,15 +119,6 @@ def _mv(A, x):
     return out
 
 
-def _block_mul(Dw, b):
-    """(npts, 2, 2) blocks times the (2 npts,) vector b."""
-    b2 = b.reshape(-1, 2)
-    y = np.empty_like(b)
-    y[0::2] = Dw[:, 0, 0] * b2[:, 0] + Dw[:, 0, 1] * b2[:, 1]
-    y[1::2] = Dw[:, 1, 0] * b2[:, 0] + Dw[:, 1, 1] * b2[:, 1]
-    return y
-
-
 @njit(cache=True)
 def _ptp_pairs(Gp, npts):
     """Every (point, a, b, q1, q2) with q1 in row 2 point + a and q2 in row 2 point + b of G
@@ -158,12 +149,26 @@ def _ptp_pairs(Gp, npts):
 
 
 @njit(cache=True)
-def _ptp_values(PT, A, B, Q1, Q2, pos, Gx, Dw, out):
-    """out = values of G^T Dw G on its pattern (``_ptp_pairs`` and positions ``pos``)."""
-    for k in range(out.shape[0]):
-        out[k] = 0.0
+def _jac_setup(E, cw, b, PT, A, B, Q1, Q2, pos, Gx, GTp, GTi, GTx, Pout, tmp, v):
+    """The data of one interface Newton system in one call: with Dw = E * cw[:, None, None]
+    (the (npts, 2, 2) blocks c w_p (T_p - K0), formed on the fly), Pout = the values of
+    G^T Dw G on its pattern (``_ptp_pairs`` and positions ``pos``), tmp = Dw b (blockwise),
+    v = G^T tmp (CSR rows summed in order, as ``_csr_mv``)."""
+    for k in range(Pout.shape[0]):
+        Pout[k] = 0.0
     for k in range(PT.shape[0]):
-        out[pos[k]] += Gx[Q1[k]] * Dw[PT[k], A[k], B[k]] * Gx[Q2[k]]
+        p = PT[k]
+        Pout[pos[k]] += Gx[Q1[k]] * (E[p, A[k], B[k]] * cw[p]) * Gx[Q2[k]]
+    for p in range(E.shape[0]):
+        b0 = b[2 * p]
+        b1 = b[2 * p + 1]
+        tmp[2 * p] = (E[p, 0, 0] * cw[p]) * b0 + (E[p, 0, 1] * cw[p]) * b1
+        tmp[2 * p + 1] = (E[p, 1, 0] * cw[p]) * b0 + (E[p, 1, 1] * cw[p]) * b1
+    for i in range(v.shape[0]):
+        acc = 0.0
+        for q in range(GTp[i], GTp[i + 1]):
+            acc += GTx[q] * tmp[GTi[q]]
+        v[i] = acc
 
 
 # duration given to rate-dependent laws for the static solve: the dead load and the reservoir
@@ -687,12 +692,14 @@ class NewmarkSolver:
             if not np.all(np.isfinite(x)):
                 raise np.linalg.LinAlgError("interface Jacobian: non-finite solution")
             return x
-        Dw = E * (c * self.w)[:, None, None]                       # (npts, 2, 2)
-        # P = G^T Dw G sparse (r x r, banded; its values scattered by a map built once)
+        # Dw = E c w (npts, 2, 2); P = G^T Dw G sparse (r x r, banded; its values scattered by
+        # a map built once); v = G^T Dw b: one compiled call (``_jac_setup``)
         P = self._ptp_pattern()
-        _ptp_values(*self._ptp_map, self._G.data, Dw, P.data)
-        v = _mv(self._GT, _block_mul(Dw, b))
-        r = v.shape[0]
+        GT = self._GT
+        r = GT.shape[0]
+        v = np.empty(r)
+        _jac_setup(E, c * self.w, b, *self._ptp_map, self._G.data, GT.indptr, GT.indices,
+                   GT.data, P.data, np.empty(2 * self.npts), v)
         z = np.empty(r)
         ok = False
         if self.jacobian_reuse and e.jac_lu is not None:
@@ -745,7 +752,8 @@ class NewmarkSolver:
             pos = np.searchsorted(prow.astype(np.int64) * r + P.indices,
                                   rows.astype(np.int64) * r + cols)
             self._ptp, self._ptp_of = P, G
-            self._ptp_map = (PT, A, Bk, Q1, Q2, pos)
+            # unsigned (no negative-index test in ``_jac_setup``'s loops)
+            self._ptp_map = tuple(x.astype(np.uint32) for x in (PT, A, Bk, Q1, Q2, pos))
             self._ptp_flat = prow.astype(np.int64) * r + P.indices   # positions in r x r
         return self._ptp
 
