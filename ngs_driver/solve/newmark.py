@@ -102,6 +102,16 @@ def _newmark_update(u, u0, v0, a0, c0, c2, c3, h, g1, g2, v_new, a_new):
 
 
 @njit(cache=True)
+def _phi_mask_kernel(phi, g, k0v, tol, out):
+    """out[p] = |phi| > tol (k0 |g|) + 1e-300 at either gap component of point p (the same
+    expression, hence the same booleans, as numpy's)."""
+    for p in range(out.size):
+        a = abs(phi[2 * p]) > tol * (k0v[2 * p] * abs(g[2 * p])) + 1e-300
+        b = abs(phi[2 * p + 1]) > tol * (k0v[2 * p + 1] * abs(g[2 * p + 1])) + 1e-300
+        out[p] = a or b
+
+
+@njit(cache=True)
 def _csr_mv(indptr, indices, data, x, out):
     """out = A x for A in CSR (indptr, indices, data)."""
     for i in range(out.shape[0]):
@@ -468,8 +478,9 @@ class NewmarkSolver:
 
     def _phi_mask(self, phi, g):
         """Points whose correction phi is not round-off of K0 g."""
-        p2 = np.abs(phi) > self.active_tol * (self._k0v * np.abs(g)) + 1e-300
-        return p2[0::2] | p2[1::2]
+        out = np.empty(self.npts, np.bool_)
+        _phi_mask_kernel(phi, g, self._k0v, self.active_tol, out)
+        return out
 
     def _rhs(self, h, f_next):
         """Effective right-hand side of the step of size h ending with load f_next."""
@@ -579,11 +590,18 @@ class NewmarkSolver:
 
         def Smul(ad, y):
             """S[:, ad] @ y = G Y G^T (y scattered on ad): never forms S (2 npts x 2 npts)."""
-            yp = np.zeros(n2)
-            yp[ad] = y
+            if ad.size == n2:                 # every point active (ad = 0 .. n2-1): no scatter
+                yp = y
+            else:
+                yp = np.zeros(n2)
+                yp[ad] = y
             return _mv(self._G, e.Y @ _mv(self._GT, yp))  # r^2 + nnz(G), not 2 npts r
 
-        g = g_lin - c * Smul(ad, wd[ad] * self._phi[ad]) if ad.size else g_lin.copy()
+        def wphi(ad, phi):
+            """(W phi)[ad] (the whole vector when every point is active)."""
+            return wd * phi if ad.size == n2 else wd[ad] * phi[ad]
+
+        g = g_lin - c * Smul(ad, wphi(ad, self._phi)) if ad.size else g_lin.copy()
         gscale = max(np.linalg.norm(g_lin), self._gref)
 
         def resid(g, act, ad):
@@ -596,7 +614,7 @@ class NewmarkSolver:
                 ad = self._dof_idx(np.flatnonzero(act))
             R = g - g_lin
             if ad.size:
-                R += c * Smul(ad, wd[ad] * phi[ad])
+                R += c * Smul(ad, wphi(ad, phi))
             return t, T, new, phi, R, act, ad
 
         try:
