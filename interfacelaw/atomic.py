@@ -6,6 +6,12 @@ import os
 import pathlib
 import tempfile
 
+# the process's umask, read once at import (os.umask can only be read by setting it, which is
+# not safe once threads write files): a written file gets mode 0o666 & ~umask, as open() would
+# give it, not the 0o600 of the temporary file
+_UMASK = os.umask(0o022)
+os.umask(_UMASK)
+
 
 def atomic_write_bytes(path, data: bytes) -> pathlib.Path:
     path = pathlib.Path(path)
@@ -15,6 +21,7 @@ def atomic_write_bytes(path, data: bytes) -> pathlib.Path:
         with os.fdopen(fd, "wb") as fh:
             fh.write(data)
             fh.flush()
+            os.fchmod(fh.fileno(), 0o666 & ~_UMASK)
             os.fsync(fh.fileno())
         os.replace(tmp, path)
     except BaseException:
