@@ -256,7 +256,7 @@ def test_seismic_load_is_the_numpy_expression():
 def test_csv_text_is_the_shortest_repr_of_every_value():
     """The CSV writer formats low-cardinality columns once per distinct bit pattern: the text
     is still repr() of every value, row by row (+-0.0, nan, inf kept apart)."""
-    from ngs_driver.out.files import _csv_text, read_csv
+    from ngs_driver.out.files import _csv_text
     rng = np.random.default_rng(5)
     n = 200
     flags = np.where(rng.random(n) < 0.5, 0.0, -0.0)
@@ -327,13 +327,12 @@ def test_checkpoints_written_in_the_background_in_order(tmp_path):
 
 
 
-def test_newmark_rhs_fused_is_numpy_bit_for_bit():
-    """The step's right-hand side M (c0 u + c2 v + c3 a) + C (c1 u + c4 v + c5 a) + f formed in
-    one compiled pass (``NewmarkSolver._rhs`` with C given, alpha_hht = 0) equals the numpy /
-    scipy expression bit for bit: the same operations in the same order."""
+def _toy_newmark(seed):
+    """A 200-DOF Newmark solver with Rayleigh C and one interface point, and random committed
+    u, v, a spanning nine decades: (solver, rng, K, M)."""
     from ngs_driver.solve.newmark import NewmarkSolver
     import interfacelaw as il
-    rng = np.random.default_rng(12)
+    rng = np.random.default_rng(seed)
     n = 200
     K = sp.random(n, n, density=0.04, random_state=rng, format="csr")
     K = (K + K.T + sp.diags(np.full(n, 5.0))).tocsr()
@@ -344,6 +343,15 @@ def test_newmark_rhs_fused_is_numpy_bit_for_bit():
                           il.ContactParams("linear"))
     s = NewmarkSolver(K, M, C, B, np.ones(1), law, dt=1e-3)
     s.u, s.v, s.a = (rng.standard_normal(n) * 10.0 ** rng.integers(-6, 3) for _ in range(3))
+    return s, rng, K, M
+
+
+def test_newmark_rhs_fused_is_numpy_bit_for_bit():
+    """The step's right-hand side M (c0 u + c2 v + c3 a) + C (c1 u + c4 v + c5 a) + f formed in
+    one compiled pass (``NewmarkSolver._rhs`` with C given, alpha_hht = 0) equals the numpy /
+    scipy expression bit for bit: the same operations in the same order."""
+    s, rng, K, M = _toy_newmark(12)
+    n = s.ndof
     f = rng.standard_normal(n)
     fused = s._rhs(1e-3, f)
     s._mc = None                                 # the numpy / scipy path
@@ -356,20 +364,9 @@ def test_step_products_feed_the_budget_and_the_next_rhs_bit_for_bit():
     M x, C y in the same pass) gives the energy budget the products it would form itself and
     the next step the right-hand side it would form itself, bit for bit; a step of another
     size (a cut) does not take the kept products."""
-    from ngs_driver.solve.newmark import NewmarkSolver
     from ngs_driver.solve.products import FusedPair
-    import interfacelaw as il
-    rng = np.random.default_rng(13)
-    n = 200
-    K = sp.random(n, n, density=0.04, random_state=rng, format="csr")
-    K = (K + K.T + sp.diags(np.full(n, 5.0))).tocsr()
-    M = sp.diags(rng.random(n) + 1.0).tocsr()
-    C = (0.3 * M + 1e-3 * K).tocsr()
-    B = sp.csr_matrix((np.r_[1.0, -1.0, 1.0, -1.0], ([0, 0, 1, 1], [0, 1, 2, 3])), shape=(2, n))
-    law = il.InterfaceLaw(il.CohesiveParams.from_fracture_energy(3e6, 3e6, 100.0, 0.2, 1.0),
-                          il.ContactParams("linear"))
-    s = NewmarkSolver(K, M, C, B, np.ones(1), law, dt=1e-3)
-    s.u, s.v, s.a = (rng.standard_normal(n) * 10.0 ** rng.integers(-6, 3) for _ in range(3))
+    s, rng, K, M = _toy_newmark(13)
+    n = s.ndof
     Ku, Mv = s.step_products()
     Ku_ref, Mv_ref = FusedPair(K, M).products(s.u, s.v)      # the budget's own pass
     assert np.array_equal(Ku, K @ s.u) and np.array_equal(Ku, Ku_ref)

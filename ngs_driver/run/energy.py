@@ -30,7 +30,6 @@ frictional contact stores 1/2 t_T^2 / C_T in its stick spring instead of 1/2 t_T
 from __future__ import annotations
 
 import numpy as np
-import scipy.sparse as sp
 from numba import njit
 
 from ..solve.products import FusedPair, pair_products

@@ -42,7 +42,6 @@ from fractions import Fraction
 import numpy as np
 import scipy.linalg as sla
 import scipy.sparse as sp
-import scipy.sparse.linalg as spl
 from numba import njit
 
 from .joint_laws import initial_stiffness, reference_gap
