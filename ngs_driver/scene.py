@@ -108,17 +108,33 @@ class GroundMotion:
 class Time:
     dt: float = _f(0.002, lo=0.0, hi=1.0, lo_open=True)
     duration: float = _f(10.0, lo=0.0, hi=1e4, lo_open=True)
+    integrator: str = _f("newmark", choices=("newmark", "hht", "generalized-alpha"),
+                         doc="time integrator: Newmark (newmark_beta, newmark_gamma), "
+                             "Hilber-Hughes-Taylor or Chung-Hulbert generalized-alpha "
+                             "(rho_inf); docs/sliding.md")
+    rho_inf: float = _f(0.7, lo=0.0, hi=1.0,
+                        doc="spectral radius at infinite frequency of hht ([0.5, 1]) and "
+                            "generalized-alpha ([0, 1]); 1: no numerical dissipation")
     newmark_beta: float = _f(0.25, lo=0.0, hi=0.5, lo_open=True)
     newmark_gamma: float = _f(0.5, lo=0.5, hi=1.0)
-    stop_slip: float = _f(0.05, lo=0.0, hi=1e3,
-                          doc="stop when every interface point is debonded and the mean base "
-                              "slip exceeds this [m] (failure by sliding); 0 disables")
+    max_slip: float = _f(5.0, lo=0.0, hi=1e4, lo_open=True,
+                         doc="stop (collapse) when the mean slip of a joint passes this [m]; "
+                             "alias time.stop_slip (0 there: 1e4 m, no limit)")
+    max_rotation: float = _f(0.05, lo=0.0, hi=1.0, lo_open=True,
+                             doc="stop (collapse) when the rotation of the block above a joint "
+                                 "passes this [rad] (small-rotation kinematics)")
 
 
 @dataclass(frozen=True)
 class Damping:
+    model: str = _f("rayleigh", choices=("rayleigh", "stiffness", "rayleigh_deformation"),
+                    doc="rayleigh: C = a0 M + a1 K; stiffness: C = a1 K (bulk K only), the ratio "
+                        "at the first of modes/frequencies; rayleigh_deformation: Rayleigh with "
+                        "the mass term on the deformation only (not on each block's rigid "
+                        "motion); docs/sliding.md")
     ratio: float = _f(0.05, lo=0.0, hi=1.0)
-    modes: tuple = _f((1, 3), lo=1, hi=50, doc="1-based mode numbers for Rayleigh")
+    modes: tuple = _f((1, 3), lo=1, hi=50, doc="1-based mode numbers (two for rayleigh and "
+                                                "rayleigh_deformation, the first for stiffness)")
     frequencies: tuple = _f((), lo=0.0, hi=1e4, lo_open=True,
                             doc="two frequencies [Hz]; empty: use `modes`")
 
@@ -141,6 +157,12 @@ class Interface:
                           "4 l_Nc of the reference parameters (Roe & Siegmund 2003)")
     F_th: float = _f(0.0)
     contact: str = _f("linear", choices=("linear", "rough", "none"))
+    contact_stiffness: float = _f(1.0e11, lo=0.0, hi=1e16, lo_open=True,
+                                  doc="compressive stiffness of the joint, closed crack and "
+                                      "intact bond, and the stick stiffness of friction [Pa/m] "
+                                      "(docs/sliding.md)")
+    cracked: bool = _f(False, doc="true: the joint starts cracked (no cohesion: contact and "
+                                  "friction only)")
     scaling: bool = _f(True)
     damage: bool = _f(True, doc="false: a law without the damage part (its kernel omits it)")
     damage_form: str = _f("paper", doc="'paper' (Eq. 7 as written, per step), 'objective' "
@@ -517,13 +539,26 @@ def _scene_checks(sc):
 
 def _cross_checks(obj, path):
     if isinstance(obj, Damping):
-        if len(obj.modes) != 2 or obj.modes[0] == obj.modes[1]:
-            raise ValueError(f"{path}.modes = {list(obj.modes)!r}: need two distinct mode "
-                             f"numbers >= 1")
-        if obj.frequencies and (len(obj.frequencies) != 2
-                                or obj.frequencies[0] == obj.frequencies[1]):
-            raise ValueError(f"{path}.frequencies = {list(obj.frequencies)!r}: need [] or two "
-                             f"distinct positive frequencies in Hz")
+        if obj.model == "stiffness":
+            if not obj.frequencies and not obj.modes:
+                raise ValueError(f"{path}.modes = []: damping.model = 'stiffness' needs a mode "
+                                 "number >= 1 (or damping.frequencies) for its ratio")
+            if obj.frequencies and len(obj.frequencies) > 2:
+                raise ValueError(f"{path}.frequencies = {list(obj.frequencies)!r}: need [] or "
+                                 "one or two positive frequencies in Hz (the first is used)")
+        else:
+            if not obj.frequencies and (len(obj.modes) != 2 or obj.modes[0] == obj.modes[1]):
+                raise ValueError(f"{path}.modes = {list(obj.modes)!r}: damping.model = "
+                                 f"{obj.model!r} needs two distinct mode numbers >= 1 (or two "
+                                 "damping.frequencies)")
+            if obj.frequencies and (len(obj.frequencies) != 2
+                                    or obj.frequencies[0] == obj.frequencies[1]):
+                raise ValueError(f"{path}.frequencies = {list(obj.frequencies)!r}: need [] or "
+                                 "two distinct positive frequencies in Hz")
+    if isinstance(obj, Time) and obj.integrator == "hht" and not 0.5 <= obj.rho_inf <= 1.0:
+        raise ValueError(f"{path}.rho_inf = {obj.rho_inf!r} with {path}.integrator = 'hht': out "
+                         "of range, allowed [0.5, 1] (HHT's alpha in [-1/3, 0]); "
+                         "'generalized-alpha' takes [0, 1]")
     if isinstance(obj, GroundMotion):
         if not obj.components or len(set(obj.components)) != len(obj.components):
             raise ValueError(f"{path}.components = {list(obj.components)!r}: need a non-empty "
@@ -616,6 +651,7 @@ def from_dict(raw: dict, overrides=None):
     if root is not Scene:
         return _build(root, apply_overrides(raw, overrides), "")
     raw, overrides = _reservoir_alias(raw, overrides)
+    raw, overrides = _stop_slip_alias(raw, overrides)
     raw = apply_overrides(raw, overrides)
     if isinstance(raw.get("reservoir"), dict) and "level" in raw["reservoir"]:
         if not isinstance(raw.get("loads", {}), dict):
@@ -648,6 +684,42 @@ def _reservoir_alias(raw: dict, overrides):
         key, eq, val = item.partition("=")
         ov.append("reservoir.level=" + val if eq and key.strip() == "loads.reservoir_level"
                   else item)
+    return raw, ov
+
+
+NO_SLIP_LIMIT = 1e4      # m: time.max_slip given by the alias time.stop_slip = 0 ("never")
+
+
+def _stop_slip_alias(raw: dict, overrides):
+    """``time.stop_slip`` (the earlier 'stop at this mean base slip' rule) is an alias of
+    ``time.max_slip``: a value > 0 becomes max_slip, 0 (earlier: never stop) becomes
+    NO_SLIP_LIMIT; both given and different: an error."""
+    def conv(v, where):
+        if isinstance(v, bool) or not isinstance(v, (int, float)) or not v >= 0:
+            raise ValueError(f"{where} = {v!r}: out of range, allowed [0, 10000] m (alias of "
+                             "time.max_slip; 0: no slip limit)")
+        return float(v) if v > 0 else NO_SLIP_LIMIT
+
+    raw = _deepcopy(raw)
+    t = raw.get("time")
+    if isinstance(t, dict) and "stop_slip" in t:
+        v = conv(t.pop("stop_slip"), "time.stop_slip")
+        if "max_slip" in t and t["max_slip"] != v:
+            raise ValueError(f"time.stop_slip and time.max_slip = {t['max_slip']!r}: two values "
+                             "for one limit; allowed: time.max_slip only (time.stop_slip is its "
+                             "alias)")
+        t["max_slip"] = v
+    ov = []
+    for item in overrides or ():
+        key, eq, val = item.partition("=")
+        if eq and key.strip() == "time.stop_slip":
+            try:
+                v = conv(tomllib.loads(f"v = {val.strip()}")["v"], "time.stop_slip")
+            except tomllib.TOMLDecodeError:
+                raise ValueError(f"--set {item!r}: value {val.strip()!r} is not a number") \
+                    from None
+            item = f"time.max_slip={v!r}"
+        ov.append(item)
     return raw, ov
 
 

@@ -33,8 +33,6 @@ class FluidStepper:
     solver interpolates its loads)."""
 
     def __init__(self, acoustic, solver, ground, g=None):
-        if solver.alpha_hht != 0.0:
-            raise ValueError("reservoir: compressible water needs alpha_hht = 0 (Newmark)")
         self.ac = acoustic
         self.solver = solver
         self.ground = ground
@@ -57,12 +55,18 @@ class FluidStepper:
         key = float(h)
         e = self._cache.get(key)
         if e is None:
-            c0, c1 = self.solver._coeffs(h)[:2]
+            c0, c1 = self.solver.integrator.coefficients(h)[:2]
+            cf, cm = self._weights()
             W = self.ac.W
-            App = (c0 * W.G + c1 * W.Cf + W.H).tocsc()
+            if cf == 1.0 and cm == 1.0:
+                App = (c0 * W.G + c1 * W.Cf + W.H).tocsc()
+            else:
+                App = ((cm * c0) * W.G + cf * (c1 * W.Cf + W.H)).tocsc()
             fac = spl.splu(App, permc_spec="MMD_AT_PLUS_A")
             X = fac.solve(np.ascontiguousarray(self.Qf.T.toarray()))     # (np, nf)
             blk = c0 * self.ac.rho * (self.Qf @ X)
+            if cf != 1.0 or cm != 1.0:
+                blk = (cf * cm) * blk
             blk = 0.5 * (blk + blk.T)
             nu = self.solver.ndof
             I, J = np.meshgrid(self.rows, self.rows, indexing="ij")
@@ -72,6 +76,11 @@ class FluidStepper:
             if len(self._cache) > 8:
                 self._cache.pop(next(iter(self._cache)))
         return e
+
+    def _weights(self):
+        """(1 - alpha_f, 1 - alpha_m) of the solver's integrator (1, 1: Newmark)."""
+        it = self.solver.integrator
+        return 1.0 - it.alpha_f, 1.0 - it.alpha_m
 
     def matrix(self, h):
         return self._entry(h)[2]
@@ -87,24 +96,43 @@ class FluidStepper:
         s, ac, W = self.solver, self.ac, self.ac.W
         if self.pdd is None:
             self._start()
-        c0, c1, c2, c3, c4, c5 = s._coeffs(h)
+        c0, c1, c2, c3, c4, c5 = s.integrator.coefficients(h)
         agx, agy = self.ground(s.time + h)
-        ubar = c0 * s.u + c2 * s.v + c3 * s.a
-        bp = (W.G @ (c0 * self.p + c2 * self.pd + c3 * self.pdd)
-              + W.Cf @ (c1 * self.p + c4 * self.pd + c5 * self.pdd)
-              + ac.rho * (ac.Q.T @ ubar) - ac.rho * (self.g[0] * agx + self.g[1] * agy))
+        cf, cm = self._weights()
         fac = self._entry(h)[0]
+        if cf == 1.0 and cm == 1.0:        # Newmark: the fluid rows at t_{n+1}
+            ubar = c0 * s.u + c2 * s.v + c3 * s.a
+            bp = (W.G @ (c0 * self.p + c2 * self.pd + c3 * self.pdd)
+                  + W.Cf @ (c1 * self.p + c4 * self.pd + c5 * self.pdd)
+                  + ac.rho * (ac.Q.T @ ubar) - ac.rho * (self.g[0] * agx + self.g[1] * agy))
+            y = fac.solve(bp)
+            self._bp = (float(h), y)
+            return ac.Q @ y
+        # HHT / generalized alpha (solve/integrator.py): the fluid rows weighted as the
+        # structure's, (1 - am) [G p'' + rho Q^T u'']_{n+1} + am [...]_n + (1 - af) [C_f p' +
+        # H p]_{n+1} + af [...]_n = -rho g [(1 - af) a_g(t_{n+1}) + af a_g(t_n)]
+        am, af = 1.0 - cm, 1.0 - cf
+        agx0, agy0 = self.ground(s.time)
+        ubar = cm * (c0 * s.u + c2 * s.v + c3 * s.a) - am * s.a
+        bp = (W.G @ (cm * (c0 * self.p + c2 * self.pd + c3 * self.pdd) - am * self.pdd)
+              + W.Cf @ (cf * (c1 * self.p + c4 * self.pd + c5 * self.pdd) - af * self.pd)
+              - af * (W.H @ self.p)
+              + ac.rho * (ac.Q.T @ ubar)
+              - ac.rho * (self.g[0] * (cf * agx + af * agx0) + self.g[1] * (cf * agy + af * agy0)))
         y = fac.solve(bp)
         self._bp = (float(h), y)
-        return ac.Q @ y
+        # the structure sees (1 - af) Q p_{n+1} + af Q p_n
+        return cf * (ac.Q @ y) + af * (ac.Q @ self.p)
 
     def commit(self, h):
         s = self.solver
-        c0, c1, c2, c3, c4, c5 = s._coeffs(h)
+        c0, c1, c2, c3, c4, c5 = s.integrator.coefficients(h)
         hk, y = self._bp
         assert hk == float(h)
         X = self._entry(h)[1]
-        p_new = y - c0 * self.ac.rho * (X @ s.u[self.rows])
+        cm = self._weights()[1]
+        cc = c0 if cm == 1.0 else cm * c0
+        p_new = y - cc * self.ac.rho * (X @ s.u[self.rows])
         dp = p_new - self.p
         pdd = c0 * dp - c2 * self.pd - c3 * self.pdd
         self.pd = self.pd + h * ((1 - s.gamma) * self.pdd + s.gamma * pdd)
@@ -133,8 +161,14 @@ class GroundPressureLoad:
         return self._zero
 
     def rhs(self, h):
-        agx, agy = self.ground(self.solver.time + h)
-        return self.vx * agx + self.vy * agy
+        s = self.solver
+        agx, agy = self.ground(s.time + h)
+        af = s.integrator.alpha_f
+        if af == 0.0:
+            return self.vx * agx + self.vy * agy
+        agx0, agy0 = self.ground(s.time)       # the load at the alpha_f point (HHT)
+        return (self.vx * ((1.0 - af) * agx + af * agx0)
+                + self.vy * ((1.0 - af) * agy + af * agy0))
 
     def commit(self, h):
         pass

@@ -86,9 +86,22 @@ def rayleigh_ratio(f: np.ndarray, a0: float, a1: float) -> np.ndarray:
 
 
 def damping_from_modes(res: ModalResult, ratio: float = 0.05, modes=(1, 3),
-                       frequencies=None) -> dict:
-    """Rayleigh coefficients at the given 1-based mode numbers (default modes 1 and 3) or
-    at explicit ``frequencies`` [Hz]."""
+                       frequencies=None, model: str = "rayleigh") -> dict:
+    """Damping coefficients (a0, a1) of C = a0 M + a1 K at the given 1-based mode numbers
+    (default modes 1 and 3) or at explicit ``frequencies`` [Hz].
+
+    model "rayleigh" and "rayleigh_deformation" (the same a0, a1; the mass term of the
+    latter acts on deformation only, solve/damping.py): ``ratio`` at both frequencies.
+    model "stiffness": C = a1 K, a1 = 2 ratio / omega_a at the first frequency (the ratio grows
+    linearly with frequency above it; Chopra, Dynamics of Structures, §11.4)."""
+    if model == "stiffness":
+        fa = float(frequencies[0]) if frequencies else float(res.frequencies_hz[modes[0] - 1])
+        src = "frequencies" if frequencies else f"mode {modes[0]}"
+        a1 = 2 * ratio / (2 * math.pi * fa)
+        return {"model": model, "a0": 0.0, "a1": a1, "ratio": ratio, "f_a": fa, "f_b": None,
+                "source": src,
+                "ratio_at_modes": [float(z) for z in rayleigh_ratio(res.frequencies_hz, 0.0,
+                                                                    a1)]}
     if frequencies:
         fa, fb = (float(v) for v in frequencies)
         src = "frequencies"
@@ -96,7 +109,8 @@ def damping_from_modes(res: ModalResult, ratio: float = 0.05, modes=(1, 3),
         fa, fb = (float(res.frequencies_hz[m - 1]) for m in modes)
         src = f"modes {tuple(modes)}"
     a0, a1 = rayleigh_coefficients(fa, fb, ratio)
-    return {"a0": a0, "a1": a1, "ratio": ratio, "f_a": fa, "f_b": fb, "source": src,
+    return {"model": model, "a0": a0, "a1": a1, "ratio": ratio, "f_a": fa, "f_b": fb,
+            "source": src,
             "ratio_at_modes": [float(z) for z in rayleigh_ratio(res.frequencies_hz, a0, a1)]}
 
 

@@ -108,8 +108,9 @@ class EnergyBudget:
 
     (equal to the direct product to round-off); without it, du.C(v0 + v) directly."""
 
-    def __init__(self, K, M, C, w, joints, rayleigh=None, C_extra=None):
+    def __init__(self, K, M, C, w, joints, rayleigh=None, C_extra=None, C_lowrank=None):
         self.K, self.M, self.C, self.w = K, M, C, w
+        self.C_lowrank = C_lowrank        # C = C + a0 U W U^T (solve/damping.py), or None
         self.joints = joints              # run.joints.JointSet (names, slices, laws)
         self.rows = []
         self._split = None
@@ -201,6 +202,8 @@ class EnergyBudget:
             self.E_damp += 0.5 * work
         elif self.C is not None:
             self.E_damp += 0.5 * float(du @ (self.C @ vs))
+        if self.C_lowrank is not None:
+            self.E_damp += 0.5 * self.C_lowrank.work(du, vs)
         if products is None:
             self._prods, self._next = (Mv, Ku), (Mv0, Ku0)  # the old products' buffers reused
         else:

@@ -188,6 +188,14 @@ class JointSet:
     def __len__(self):
         return len(self.names)
 
+    def cracked_points(self) -> np.ndarray:
+        """Bool mask of the points of the joints that start cracked (``cracked = true``)."""
+        mask = np.zeros(self.w.size, bool)
+        for tbl, sl in zip(self.tables, self.slices):
+            if getattr(tbl, "cracked", False):
+                mask[sl] = True
+        return mask
+
     def solver_law(self):
         """The law the solver evaluates: the base's own law when it is the only joint."""
         return self.laws[0] if len(self.laws) == 1 else JointLaws(self.laws, self.slices)

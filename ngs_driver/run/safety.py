@@ -326,7 +326,7 @@ class Safety:
 
     @property
     def slip_bound(self) -> float:
-        return self.scene.time.stop_slip if self.scene.time.stop_slip > 0 else 0.05
+        return min(self.scene.time.max_slip, 0.05)
 
     def _mean_slips(self, g) -> np.ndarray:
         w = self.joints.w

@@ -19,7 +19,9 @@ _SCENE_KEY = {"CohesiveParams.sigma_max": "sigma_max", "CohesiveParams.tau_max":
               "DamageParams.g_max": "g_max", "DamageParams.alpha": "alpha",
               "DamageParams.beta": "beta", "DamageParams.F_th": "F_th",
               "DamageParams.form": "damage_form", "DamageParams.t_ref": "t_ref",
-              "ContactParams.kind": "contact"}
+              "ContactParams.kind": "contact", "ContactParams.penalty": "contact_stiffness",
+              "ContactParams.intact_stiffness": "contact_stiffness",
+              "FrictionParams.penalty": "contact_stiffness"}
 
 
 def _table(obj):
@@ -36,8 +38,13 @@ def build_law(tbl):
     i = _table(tbl)
     coh = CohesiveParams.from_fracture_energy(i.sigma_max, i.tau_max, i.G_I, i.lambda_max,
                                               i.ratio_lTc_lNc)
-    con = None if i.contact == "none" else ContactParams(kind=i.contact)
-    fri = FrictionParams(f=i.friction) if (con is not None and i.friction > 0) else None
+    kc = getattr(i, "contact_stiffness", None)
+    # the joint's compressive stiffness (closed crack and intact bond alike) and the stick
+    # stiffness of friction: one named value, not the cohesive law's (docs/sliding.md)
+    con = None if i.contact == "none" else ContactParams(kind=i.contact, penalty=kc,
+                                                         intact_stiffness=kc)
+    fri = (FrictionParams(f=i.friction, penalty=kc) if (con is not None and i.friction > 0)
+           else None)
     dmg = None
     if i.damage:
         kw = dict(g_max=i.g_max, alpha=i.alpha, beta=i.beta, F_th=i.F_th, form=i.damage_form)
@@ -82,6 +89,8 @@ def law_parts(tbl) -> dict:
             "friction": bool(i.contact != "none" and i.friction > 0),
             "damage": bool(i.damage), "damage_form": i.damage_form, "damage_alpha": i.alpha,
             "damage_beta": i.beta, "damage_g_max": i.g_max,
+            "contact_stiffness": getattr(i, "contact_stiffness", None),
+            "cracked": bool(getattr(i, "cracked", False)),
             "scaling": bool(getattr(i, "scaling", False))}
 
 

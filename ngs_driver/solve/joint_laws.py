@@ -55,14 +55,32 @@ class JointLaws:
         return t, T, new
 
 
-def initial_stiffness(law, npts: int) -> np.ndarray:
-    """(npts, 2) initial elastic stiffness (k_N, k_T) of the law at every point [Pa/m]."""
-    if isinstance(law, JointLaws):
-        k = np.empty((npts, 2))
-        for lw, sl in zip(law.laws, law.slices):
-            k[sl] = (lw.cohesive.k_normal, lw.cohesive.k_tangential)
-        return k
-    return np.tile([law.cohesive.k_normal, law.cohesive.k_tangential], (npts, 1))
+def law_stiffness(law, cracked: bool = False) -> tuple[float, float]:
+    """(k_N, k_T) [Pa/m] of a joint under compression: the normal stiffness is the contact's
+    intact (compressive) stiffness when the law has contact (a joint under its dam's weight is
+    compressed), else the cohesive one; the tangential is the cohesive one, or for a cracked
+    joint with friction the stick stiffness of friction."""
+    kn = law.cohesive.k_normal
+    kt = law.cohesive.k_tangential
+    if law.contact is not None:
+        kn = float(law.contact.as_array(law.cohesive)[0])
+        if cracked and law.friction is not None:
+            kt = float(law.friction.as_array(law.cohesive)[1])
+    return kn, kt
+
+
+def initial_stiffness(law, npts: int, debonded=None) -> np.ndarray:
+    """(npts, 2) elastic stiffness (k_N, k_T) of the law at every point [Pa/m]
+    (``law_stiffness`` of each joint's law; ``debonded``: bool (npts,) of cracked points)."""
+    laws = law.laws if isinstance(law, JointLaws) else (law,)
+    slices = law.slices if isinstance(law, JointLaws) else (slice(0, npts),)
+    k = np.empty((npts, 2))
+    for lw, sl in zip(laws, slices):
+        k[sl] = law_stiffness(lw)
+        if debonded is not None and np.any(debonded[sl]):
+            idx = np.flatnonzero(debonded[sl]) + sl.start
+            k[idx] = law_stiffness(lw, cracked=True)
+    return k
 
 
 def reference_gap(law) -> float:

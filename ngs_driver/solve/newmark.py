@@ -44,6 +44,8 @@ import scipy.linalg as sla
 import scipy.sparse as sp
 from numba import njit
 
+from .damping import LowRankFactor
+from .integrator import Integrator
 from .joint_laws import initial_stiffness, reference_gap
 from .krylov import gmres_lu, lu_solve_into
 from .products import FusedPair, pair_products, step_products
@@ -286,15 +288,29 @@ class NewmarkSolver:
     """
 
     def __init__(self, K, M, C, B, w, law, *, dt, beta=None, gamma=None, alpha_hht=0.0,
-                 tol_residual=1e-8, tol_energy=1e-16, max_iter=25, min_dt=None,
-                 method="condensed", line_search=True, max_cache=6, active_tol=1e-12,
-                 few_max=16, jacobian_reuse=True):
+                 integrator=None, tol_residual=1e-8, tol_energy=1e-16, max_iter=25,
+                 min_dt=None, method="condensed", line_search=True, max_cache=6,
+                 active_tol=1e-12, few_max=16, jacobian_reuse=True, C_lowrank=None):
         if method not in ("condensed", "full"):
             raise ValueError(f"NewmarkSolver method = {method!r} is not allowed; allowed: "
                              "'condensed', 'full'")
         if not (-1.0 / 3.0 - 1e-12 <= alpha_hht <= 0.0):
             raise ValueError(f"NewmarkSolver alpha_hht = {alpha_hht!r} is not allowed; "
                              "allowed: [-1/3, 0]")
+        if integrator is None:          # Newmark (beta, gamma) or HHT by its alpha
+            integrator = Integrator(
+                "newmark" if alpha_hht == 0.0 else "hht",
+                float(beta if beta is not None else (1.0 - alpha_hht) ** 2 / 4.0),
+                float(gamma if gamma is not None else 0.5 - alpha_hht), -float(alpha_hht))
+        elif beta is not None or gamma is not None or alpha_hht != 0.0:
+            raise ValueError("NewmarkSolver: give either integrator or beta/gamma/alpha_hht")
+        self.integrator = integrator
+        # the dense low-rank part of the damping matrix, C = C + a0 U W U^T (solve/damping.py)
+        self.C_lowrank = C_lowrank
+        self._P = C_lowrank                  # None or a DeformationDamping
+        if self._P is not None and (C is None or method != "condensed"):
+            raise ValueError("NewmarkSolver: C_lowrank needs a sparse damping matrix C and the "
+                             "condensed method")
         self.K = sp.csr_matrix(K)
         self.M = sp.csr_matrix(M)
         self.C = None if C is None else sp.csr_matrix(C)
@@ -306,9 +322,10 @@ class NewmarkSolver:
         if self.B.shape != (2 * self.npts, self.ndof):
             raise ValueError(f"NewmarkSolver B shape {self.B.shape} does not match "
                              f"(2*npts, ndof) = {(2 * self.npts, self.ndof)}")
-        self.alpha_hht = float(alpha_hht)
-        self.beta = float(beta if beta is not None else (1.0 - alpha_hht) ** 2 / 4.0)
-        self.gamma = float(gamma if gamma is not None else 0.5 - alpha_hht)
+        self.alpha_hht = -integrator.alpha_f          # Hilber et al.'s sign convention
+        self.alpha_m = integrator.alpha_m
+        self.beta = integrator.beta
+        self.gamma = integrator.gamma
         self.dt = float(dt)
         self.tol_residual = float(tol_residual)
         self.tol_energy = float(tol_energy)
@@ -356,8 +373,9 @@ class NewmarkSolver:
         self._rhs_next = None            # (h, u, v, a, M x, C y) formed by step_products
 
     # ------------------------------------------------------------------ set-up / parameters
-    def _set_k0(self, law):
-        self.k0p = initial_stiffness(law, self.npts)         # (npts, 2): k_N, k_T per point
+    def _set_k0(self, law, debonded=None):
+        # (npts, 2): k_N, k_T per point (a cracked point: the contact and stick stiffness)
+        self.k0p = initial_stiffness(law, self.npts, debonded)
         self.k0 = self.k0p.max(axis=0)
         self._k0v = self.k0p.ravel()
         self._k0blk = np.zeros((self.npts, 2, 2))
@@ -365,6 +383,16 @@ class NewmarkSolver:
         self._k0blk[:, 1, 1] = self.k0p[:, 1]
         self._gref = reference_gap(law) * 1e-3 * math.sqrt(self.npts)
         self._BtWK0B = (self.BT @ sp.diags(self._k0v * np.repeat(self.w, 2)) @ self.B).tocsr()
+
+    def set_state(self, state):
+        """Set the committed interface state before the first solve (e.g. joints that start
+        cracked) and take the elastic stiffness K0 of the factorised matrix from it: the
+        contact and stick stiffness at cracked points, so that a compressed, sticking cracked
+        joint is linear in the condensed Newton (no active points)."""
+        self.state = state
+        self._set_k0(self.law, np.asarray(state.debonded, bool))
+        self._cache.clear()
+        self._static_cache = None
 
     def set_law(self, law, refactor: bool = False):
         """Replace the interface law between steps (size-scale update).  The factorised K0
@@ -404,7 +432,7 @@ class NewmarkSolver:
             self._Minv = SparseFactor(self.M)
         r = f - self.K @ self.u - self._fint(self.t)
         if self.C is not None:
-            r -= self.C @ self.v
+            r -= self._Cmul(self.v)
         self.a = self._Minv.solve(r)
         self._Minv = None                # used once per run: not kept (memory, #15)
         self.f = np.array(f, dtype=float)
@@ -415,9 +443,14 @@ class NewmarkSolver:
         return self.BT @ (self._wd * t.ravel())
 
     def _coeffs(self, h):
-        b, g = self.beta, self.gamma
-        return (1.0 / (b * h * h), g / (b * h), 1.0 / (b * h), 0.5 / b - 1.0, g / b - 1.0,
-                h * (0.5 * g / b - 1.0))
+        return self.integrator.coefficients(h)
+
+    def _Cmul(self, y):
+        """C y, with the low-rank part of C when there is one."""
+        out = self.C @ y
+        if self._P is not None:
+            out += self._P.product(y)
+        return out
 
     def _A_lin(self, h):
         """c0 M + c (K + c1 C) (no interface) for step size h; None -> static K."""
@@ -425,7 +458,7 @@ class NewmarkSolver:
             return self.K
         c0, c1 = self._coeffs(h)[:2]
         c = 1.0 + self.alpha_hht
-        A = c0 * self.M + c * self.K
+        A = (c0 * (1.0 - self.alpha_m) if self.alpha_m else c0) * self.M + c * self.K
         if self.C is not None:
             A = A + (c * c1) * self.C
         if getattr(self, "ext", None) is not None:     # compressible water (acoustic_newmark)
@@ -445,8 +478,12 @@ class NewmarkSolver:
             # a cut costs one factorisation + columns once per sub-step size for the whole
             # run; the cache holds every halving level (measured: 18 cuts at 1.5-3.8 s each
             # with 3 slots); the nominal step's entry is never evicted
-            e = _Cache(SparseFactor(self._A_lin(h) + c * self._BtWK0B).restrict(self._Idofs),
-                       base=abs(h - self.dt) <= 1e-12 * self.dt)
+            F = SparseFactor(self._A_lin(h) + c * self._BtWK0B).restrict(self._Idofs)
+            if self._P is not None:          # A = A_s + c c1 a0 U W U^T (Woodbury)
+                c1 = self._coeffs(h)[1]
+                lo = self._P
+                F = LowRankFactor(F, lo.U, (c * c1 * lo.a0) * lo.W, self._Idofs)
+            e = _Cache(F, base=abs(h - self.dt) <= 1e-12 * self.dt)
             self._cache[key] = e
             while len(self._cache) > self.max_cache:      # evict the LRU sub-step entry
                 old = next((k for k, v in self._cache.items() if not v.base),
@@ -486,7 +523,7 @@ class NewmarkSolver:
         c0, c1, c2, c3, c4, c5 = self._coeffs(h)
         al = self.alpha_hht
         c = 1.0 + al
-        if self._mc is not None and al == 0.0:
+        if self._mc is not None and al == 0.0 and self.alpha_m == 0.0:
             mc = self._mc
             rhs = np.empty(self.ndof)
             f = np.ascontiguousarray(f_next, dtype=np.float64)
@@ -498,21 +535,33 @@ class NewmarkSolver:
                 if self._rhs_work is None:
                     self._rhs_work = np.empty((4, self.ndof))
                 x, y, om, oc = self._rhs_work
-                _rhs_fused(mc.indptr, mc.indices, mc.Ax, mc.Bx, self.u, self.v, self.a,
-                           np.array([c0, c2, c3]), np.array([c1, c4, c5]), c, f, x, y, om,
-                           oc, rhs)
+                if self._P is None:
+                    _rhs_fused(mc.indptr, mc.indices, mc.Ax, mc.Bx, self.u, self.v, self.a,
+                               np.array([c0, c2, c3]), np.array([c1, c4, c5]), c, f, x, y,
+                               om, oc, rhs)
+                else:                             # C y = C_s y + a0 U W U^T y
+                    _rhs_vectors(self.u, self.v, self.a, np.array([c0, c2, c3]),
+                                 np.array([c1, c4, c5]), x, y)
+                    pair_products(mc.indptr, mc.indices, mc.Ax, mc.Bx, x, y, om, oc)
+                    oc += self._P.product(y)
+                    _rhs_combine(om, oc, c, f, rhs)
             if getattr(self, "ext", None) is not None:
                 rhs += self.ext.rhs(h)
             return rhs
-        rhs = self.M @ (c0 * self.u + c2 * self.v + c3 * self.a)
+        am = self.alpha_m
+        if am == 0.0:
+            rhs = self.M @ (c0 * self.u + c2 * self.v + c3 * self.a)
+        else:       # (1 - am) M a_{n+1} + am M a_n with a_{n+1} = c0 du - c2 v - c3 a
+            rhs = self.M @ ((1.0 - am) * (c0 * self.u + c2 * self.v + c3 * self.a)
+                            - am * self.a)
         if self.C is not None:
-            rhs += c * (self.C @ (c1 * self.u + c4 * self.v + c5 * self.a))
+            rhs += c * self._Cmul(c1 * self.u + c4 * self.v + c5 * self.a)
         if al != 0.0:
             f_n = self.f if self.f is not None else f_next
             rhs += c * f_next - al * f_n
             r_n = self.K @ self.u + self._fint(self.t)
             if self.C is not None:
-                r_n += self.C @ self.v
+                r_n += self._Cmul(self.v)
             rhs += al * r_n
         else:
             rhs += f_next
@@ -601,7 +650,10 @@ class NewmarkSolver:
             return wd * phi if ad.size == n2 else wd[ad] * phi[ad]
 
         g = g_lin - c * Smul(ad, wphi(ad, self._phi)) if ad.size else g_lin.copy()
-        gscale = max(np.linalg.norm(g_lin), self._gref)
+        # the residual's scale is fixed for the attempt (the linear predictor, the committed
+        # gap, the law's elastic opening): relative to the iterate's own norm a runaway slip
+        # of a sliding joint would make any residual look small
+        gscale = max(np.linalg.norm(g_lin), np.linalg.norm(self.g), self._gref)
 
         def resid(g, act, ad):
             t, T, new = law.evaluate(g.reshape(-1, 2), state, dt=self._law_dt(h))
@@ -620,7 +672,7 @@ class NewmarkSolver:
             t, T, new, phi, R, act, ad = resid(g, act, ad)
         except (ValueError, FloatingPointError):
             return (False,) + (None,) * 6 + (0, np.inf)
-        rnorm = np.linalg.norm(R) / max(np.linalg.norm(g), gscale)
+        rnorm = np.linalg.norm(R) / gscale
         energy0 = None
         energy = np.inf
         it = 0
@@ -646,7 +698,7 @@ class NewmarkSolver:
             # backtracking line search on the residual norm
             def trial(x):
                 o = resid(x, act, ad)
-                return o, np.linalg.norm(o[4]) / max(np.linalg.norm(x), gscale)
+                return o, np.linalg.norm(o[4]) / gscale
 
             ls = self._line_search(g, dg, rnorm, trial)
             if ls is None:
@@ -866,16 +918,38 @@ class NewmarkSolver:
         commits u, the interface state; sets v = a = 0 and the current load to f."""
         t0 = time.perf_counter()
         rep = StepReport()
-        res = self._attempt(None, f)
-        if not res[0]:
-            raise SolverError(f"static solve did not converge in {self.max_iter} iterations "
-                              f"(relative residual {res[-1]:.3e})")
-        self._commit(None, f, res)
+        f = np.asarray(f, dtype=float)
+        # the load in one increment; if that does not converge, by continuation: the load
+        # path from the committed load f0 to f in increments, halved on failure and grown back
+        # (the friction of a cracked joint is path dependent: the path is the proportional
+        # application of the static loads)
+        f0 = self.f if self.f is not None else np.zeros_like(f)
+        pos, hf = Fraction(0), Fraction(1)
+        last = None
+        while pos < 1:
+            hf = min(hf, 1 - pos)
+            end = pos + hf
+            fe = f if end == 1 else f0 + float(end) * (f - f0)
+            res = self._attempt(None, fe)
+            last = res
+            if res[0]:
+                self._commit(None, fe, res)
+                rep.iterations += res[7]
+                rep.iters_per_substep.append(res[7])
+                rep.residuals.append(res[8])
+                pos = end
+                if hf < 1 and pos % (2 * hf) == 0:
+                    hf *= 2
+            else:
+                rep.iterations_failed += res[7]
+                rep.cuts += 1
+                hf /= 2
+                if hf < Fraction(1, 2 ** 10):
+                    raise SolverError(f"static solve did not converge in {self.max_iter} "
+                                      f"iterations, even with the load in 1/1024 increments "
+                                      f"(relative residual {last[-1]:.3e})")
         self.v = np.zeros(self.ndof)
         self.a = np.zeros(self.ndof)
-        rep.iterations = res[7]
-        rep.iters_per_substep = [res[7]]
-        rep.residuals = [res[8]]
         rep.n_active = int(self._active.sum())
         rep.wall = time.perf_counter() - t0
         self.history.append(rep)
@@ -943,7 +1017,7 @@ class NewmarkSolver:
         next step of size dt, which ``_rhs`` then takes instead of forming them (kept while
         u, v, a are the same arrays: the committed fields are replaced, never modified in
         place)."""
-        if self._mc is None or self.alpha_hht != 0.0:
+        if self._mc is None or not self.integrator.plain:
             return None
         mc = self._mc
         c0, c1, c2, c3, c4, c5 = self._coeffs(self.dt)
@@ -955,6 +1029,8 @@ class NewmarkSolver:
         Ku, Mv, Mx, Cy = (np.empty(self.ndof) for _ in range(4))
         step_products(mc.indptr, mc.indices, mc.Ax, mc.Bx, mc.Cx, self.u, self.v, x, y, Ku,
                       Mv, Mx, Cy)
+        if self._P is not None:
+            Cy += self._P.product(y)
         self._rhs_next = (self.dt, self.u, self.v, self.a, Mx, Cy)
         return Ku, Mv
 
