@@ -104,8 +104,9 @@ def plot_energy(path, H, joints, title):
                                  gridspec_kw={"height_ratios": [3, 1]})
     t = H["t"]
     for k, lab in (("W_ext", "external work"), ("E_kin", "kinetic"), ("E_bulk", "bulk elastic"),
-                   ("E_damp", "Rayleigh damping")):
-        ax.plot(t, H[k], lw=1.0, label=lab)
+                   ("E_damp", "viscous damping"), ("E_alg", "time integrator")):
+        if k in H:
+            ax.plot(t, H[k], lw=1.0, label=lab)
     for j in joints:
         ax.plot(t, H[f"{j}_E_stored"], lw=0.8, ls="--", label=f"{j}: stored")
         ax.plot(t, H[f"{j}_E_diss"], lw=0.8, ls=":", label=f"{j}: dissipated")

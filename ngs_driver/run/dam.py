@@ -505,6 +505,6 @@ def energy_summary(H, keys) -> dict:
     return {"final": final, "max_abs_residual": float(np.max(np.abs(H["residual"]))),
             "max_residual_over_input_work": float(np.max(np.abs(H["residual"]))) / scale,
             "input_work_scale": scale,
-            "definition": "residual = W_ext - (E_kin + E_bulk + E_damp + E_stored + E_diss "
+            "definition": "residual = W_ext - (E_kin + E_bulk + E_damp + E_alg + E_stored + E_diss "
                           "+ E_scaling), "
                           "from the static state; docs/decisions.md §7.4"}
