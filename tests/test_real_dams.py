@@ -263,3 +263,20 @@ def test_modal_names_the_fundamental_resonance_pine_flat(tmp_path):
         assert fr["fundamental_hz"][k] == fund[k]["f_hz"]
     assert d["plane"] == "strain" and d["f1_hz"] == pytest.approx(f1)
     assert (tmp_path / "frequency_response.png").stat().st_size > 0
+
+
+def test_verification_pine_flat_fast(tmp_path, study):
+    """The study's fast mode: its tables exist, ours equals scikit-fem on the same triangles
+    (1e-8), plane stress is below plane strain for every foundation, the fundamental
+    resonances fall with the water, and no published number is made up."""
+    res = study("pine_flat").main(fast=True, outdir=tmp_path)
+    assert (tmp_path / "pine_flat.md").stat().st_size > 0
+    for r in res["refinement"]:
+        assert r["f1_hz"] == pytest.approx(r["f1_skfem_hz"], rel=1e-8)
+    f = {(r["foundation"], r["plane"]): r["f1_hz"] for r in res["frequencies"]}
+    for fnd in ("rigid", "massless", "massed"):
+        assert f[fnd, "stress"] < f[fnd, "strain"]
+        assert f[fnd, "strain"] <= f["rigid", "strain"] + 1e-12   # a flexible base is softer
+    for r in res["resonances"]:
+        assert r["compressible_hz"] < r["incompressible_hz"] < r["none_hz"]
+    assert all(p["value"] is None for p in res["published"])
