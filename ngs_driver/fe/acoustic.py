@@ -223,6 +223,8 @@ class WaterMatrices:
     b_y: np.ndarray                # (bottom, rigid far end; not the face: that is Q^T r)
     face_x: np.ndarray             # int_face n_x psi  (= Q^T r_x for a rigid face)
     face_y: np.ndarray
+    Cf_far: sp.csr_matrix | None = None   # the far end's part of Cf (radiation), for the
+                                          # energy budget; Cf - Cf_far is the bottom's
 
 
 def water_matrices(mesh, c: float, compressible: bool, alpha: float, far_end: str,
@@ -265,9 +267,14 @@ def water_matrices(mesh, c: float, compressible: bool, alpha: float, far_end: st
         if far_end == "radiation":
             cf = cf + 1.0 / c * p * s * ngs.ds("far_end")
         Cf = mat(cf) if not isinstance(cf, int) else sp.csr_matrix((nf, nf))
+        # the far end's part alone (energy budget: radiated vs absorbed at the bottom); Cf
+        # itself stays the one assembled form, bit for bit as before
+        Cf_far = (mat(1.0 / c * p * s * ngs.ds("far_end")) if far_end == "radiation"
+                  else sp.csr_matrix((nf, nf)))
     else:
         G = sp.csr_matrix((nf, nf))
         Cf = sp.csr_matrix((nf, nf))
+        Cf_far = sp.csr_matrix((nf, nf))
 
     def lin(form):
         f = ngs.LinearForm(Vp)
@@ -282,7 +289,7 @@ def water_matrices(mesh, c: float, compressible: bool, alpha: float, far_end: st
     b_x = -lin(s * ngs.ds("far_end")) if far_end == "rigid" else np.zeros(nf)
     face_x = lin(n[0] * s * ngs.ds(FACE))
     face_y = lin(n[1] * s * ngs.ds(FACE))
-    return WaterMatrices(Vp, free, Hm, G, Cf, b_x, b_y, face_x, face_y)
+    return WaterMatrices(Vp, free, Hm, G, Cf, b_x, b_y, face_x, face_y, Cf_far)
 
 
 def rigid_wall_response(W: WaterMatrices, rho: float, omega: float = 0.0,

@@ -16,6 +16,13 @@ From the static state (t = 0) on, per metre of dam [J/m]:
 
     residual = W_ext - (E_kin + E_bulk + E_damp + E_stored + E_diss + E_scaling)
 
+With compressible acoustic water (``fluid``: the fluid stepper's ``energy_terms``) the water's
+terms join the budget (issue #23): the ground's work on the water W_water (an input) and the
+water's kinetic and potential energy, the energy radiated at the far end and absorbed at the
+bottom; residual = W_ext + W_water - (... + E_water_kin + E_water_pot + E_water_radiated +
+E_water_absorbed). Westergaard and incompressible water are added masses in M: their kinetic
+energy is inside E_kin already; ``E_kin_added_mass`` = 1/2 v.M_a v shows that part.
+
 For average-acceleration Newmark the kinetic, bulk and damping terms obey this identity
 exactly per step (the trapezoid pairs with the scheme); the interface term does not: the
 stored + dissipated energy comes from the law, the trapezoid only approximates the work of
@@ -38,6 +45,7 @@ __all__ = ["EnergyBudget", "stored_energy", "ENERGY_KEYS"]
 
 ENERGY_KEYS = ("W_ext", "E_kin", "E_bulk", "E_damp", "E_stored", "E_diss", "E_scaling",
                "residual")
+WATER_KEYS = ("W_water", "E_water_kin", "E_water_pot", "E_water_radiated", "E_water_absorbed")
 
 
 def stored_energy(law, t, g, state) -> np.ndarray:
@@ -108,8 +116,13 @@ class EnergyBudget:
 
     (equal to the direct product to round-off); without it, du.C(v0 + v) directly."""
 
-    def __init__(self, K, M, C, w, joints, rayleigh=None, C_extra=None):
+    def __init__(self, K, M, C, w, joints, rayleigh=None, C_extra=None, fluid=None,
+                 added_mass=None):
         self.K, self.M, self.C, self.w = K, M, C, w
+        # the water (issue #23): fluid has energy_terms() (compressible acoustic water);
+        # added_mass the Westergaard / incompressible added mass already in M (reported only)
+        self.fluid = fluid if hasattr(fluid, "energy_terms") else None
+        self.added_mass = added_mass
         self.joints = joints              # run.joints.JointSet (names, slices, laws)
         self.rows = []
         self._split = None
@@ -217,11 +230,21 @@ class EnergyBudget:
         row["E_scaling"] = self.E_scaling
         row["residual"] = row["W_ext"] - (row["E_kin"] + row["E_bulk"] + row["E_damp"]
                                           + row["E_stored"] + row["E_diss"] + self.E_scaling)
+        if self.fluid is not None:
+            wt = self.fluid.energy_terms()
+            row.update(wt)
+            row["residual"] += wt["W_water"] - (wt["E_water_kin"] + wt["E_water_pot"]
+                                                + wt["E_water_radiated"]
+                                                + wt["E_water_absorbed"])
+        if self.added_mass is not None:
+            row["E_kin_added_mass"] = 0.5 * float(v @ (self.added_mass @ v))
         return row
 
     def keys(self) -> list[str]:
+        water = (list(WATER_KEYS) if self.fluid is not None else []) + (
+            ["E_kin_added_mass"] if self.added_mass is not None else [])
         return list(ENERGY_KEYS[:-1]) + [f"{n}_{k}" for n in self.joints.names
-                                         for k in ("E_stored", "E_diss")] + ["residual"]
+                                         for k in ("E_stored", "E_diss")] + water + ["residual"]
 
     def state(self) -> dict:
         """What a checkpoint must keep to continue the budget bitwise."""
