@@ -280,3 +280,33 @@ def test_verification_pine_flat_fast(tmp_path, study):
     for r in res["resonances"]:
         assert r["compressible_hz"] < r["incompressible_hz"] < r["none_hz"]
     assert all(p["value"] is None for p in res["published"])
+
+
+def test_koyna_1967_runs_with_its_neck_under_water(tmp_path):
+    """koyna_1967: the neck joint lies below the water line of the acoustic reservoir. The
+    water used to lose the regions of the boundary segments, so each block's space took the
+    other block's outer vertices and K was singular; now each block keeps exactly its own
+    vertices (the same DOF counts as without water), and a short run writes joints.neck,
+    joints.base and the water's energy terms, its budget closed (linear start, 1e-8)."""
+    import json
+
+    from ngs_driver.fe.model import build_from_scene
+    from ngs_driver.run.dam import run
+
+    coarse = ["mesh.h_heel=1.0", "mesh.heel_zone=0.0", "mesh.h_interface=4.0",
+              "mesh.h_coarse=6.0", "mesh.growth=1.5", "reservoir.h_max=12.0",
+              "joints=[{name='neck', elevation=66.5, h_end=1.0, h_joint=4.0, friction=0.6}]"]
+    sc = load_scene("koyna_1967", coarse + ["time.duration=0.1", "output.checkpoint_every=0",
+                                            "ground_motion.scale=0.001"])
+    assert sc.materials.plane == "stress" and sc.reservoir.level == 91.75
+    assert [j.elevation for j in sc.joints] == [66.5]
+    dry = build_from_scene(load_scene("koyna_1967", coarse + ["reservoir.model=none"]))
+    wet = build_from_scene(sc)
+    assert [V.ndof for V in wet.fes.components[:2]] == [V.ndof for V in dry.fes.components[:2]]
+    assert np.all(wet.K.diagonal() > 0)
+    run(sc, tmp_path, plots=False, progress=False)
+    s = json.loads((tmp_path / "summary.json").read_text())
+    assert {"base", "neck"} <= set(s["joints"])
+    fin = s["energy"]["final"]
+    assert {"W_water", "E_water_kin", "E_water_pot", "E_water_radiated"} <= set(fin)
+    assert s["energy"]["max_residual_over_input_work"] < 1e-8
