@@ -208,7 +208,9 @@ def cmd_modal(a) -> int:
     from .run.modal import run_modal
     out = pathlib.Path(a.out or sc.output.dir)
     md, res, damp = run_modal(sc, out, a.n)
-    print(f"scene {sc.name}: nfree {md.nfree}, interface points {md.interface.npts}")
+    print(f"scene {sc.name}: nfree {md.nfree}, interface points {md.interface.npts}, "
+          f"plane {sc.materials.plane}")
+    print(f"f1 = {res.frequencies_hz[0]:.4f} Hz")
     print("frequencies [Hz]:", " ".join(f"{f:.4f}" for f in res.frequencies_hz))
     print(f"Rayleigh a0 = {damp['a0']:.6g} 1/s, a1 = {damp['a1']:.6g} s "
           f"({damp['source']}: {damp['f_a']:.3f}, {damp['f_b']:.3f} Hz)")
@@ -218,8 +220,12 @@ def cmd_modal(a) -> int:
         print(f"reservoir {rinfo['kind']}, level {rinfo['level']:g} m: {rinfo.get('note', '')}")
         fr = rinfo.get("frequency_response")
         if fr:
-            print("crest response peaks [Hz]: " + ", ".join(
-                f"{k} {v:.3f}" for k, v in fr["peak_hz"].items())
+            print("fundamental resonance (first peak of the crest response): " + ", ".join(
+                f"{k} {v['f_hz']:.3f} Hz (x{v['amplitude']:.2f})" if v else f"{k} none"
+                for k, v in fr["fundamental_resonance"].items()))
+            print("global maximum: " + ", ".join(
+                f"{k} {v['f_hz']:.3f} Hz (x{v['amplitude']:.2f})"
+                for k, v in fr["global_max"].items())
                 + f"; wrote {', '.join(str(out / f) for f in fr['files'])}")
     return 0
 

@@ -77,6 +77,11 @@ class Material:
 class Materials:
     dam: Material = field(default_factory=lambda: Material(50e9, 0.2, 2500.0))
     rock: Material = field(default_factory=lambda: Material(50e9, 0.2, 2800.0))
+    plane: str = _f("strain", choices=("strain", "stress"),
+                    doc="2D idealisation of the dam and the rock: plane strain (default) or "
+                        "plane stress (a monolith between open contraction joints, 1 m thick "
+                        "per metre of dam; EAGD-84). Forces and energies are per metre of "
+                        "dam in both (docs/real_dams.md)")
 
 
 @dataclass(frozen=True)

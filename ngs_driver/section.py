@@ -101,6 +101,11 @@ class Section:
         if np.any(np.hypot(*(np.roll(P, -1, axis=0) - P).T) <= _TOL):
             raise ValueError(f"{_short(profile)}: two consecutive points coincide")
         if (abs(P[0, 0]) <= _TOL and abs(P[0, 1]) <= _TOL and abs(P[-1, 1]) <= _TOL
+                and P[-1, 0] > _TOL and abs(P[1, 1]) <= _TOL and P[1, 0] > _TOL):
+            raise ValueError(f"{_short(profile)}: does not close at the heel: the last point "
+                             f"{P[-1].tolist()} lies on the base; allowed: an outline that ends "
+                             "on the upstream face (the edge back to the heel (0, 0) is implied)")
+        if (abs(P[0, 0]) <= _TOL and abs(P[0, 1]) <= _TOL and abs(P[-1, 1]) <= _TOL
                 and P[-1, 0] > _TOL):
             raise ValueError(f"{_short(profile)}: clockwise (the toe is the last point); "
                              "allowed: counter-clockwise (heel, toe, downstream face, crest, "

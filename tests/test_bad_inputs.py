@@ -116,6 +116,10 @@ SCENES = [
     (["geometry.profile_file='/nonexistent/section.csv'"],
      r"geometry.profile_file = '/nonexistent/section.csv': no such file"),
     (["interface.contact='soft'"], r"interface.contact = 'soft': not allowed"),
+    # plane stress / strain (issue #23)
+    (["materials.plane=axisymmetric"],
+     r"materials.plane = 'axisymmetric': not allowed, choose one of \['strain', 'stress'\]"),
+    (["materials.plane=1"], r"materials.plane = 1: wrong type"),
     (["mesh.h_heel"], r"expected KEY.PATH=VALUE"),
     (["mesh.h_heel=[1,"], r"is not a TOML literal"),
     # [reservoir] (issue #12)
@@ -172,6 +176,26 @@ def test_scene_values(sets, pat):
     from ngs_driver.setup import validate
     with pytest.raises(ValueError, match=pat):
         validate(load_scene("koyna", sets))
+
+
+def test_section_files(tmp_path):
+    """A section file (the shipped Pine Flat one, spoiled) that runs clockwise, has its base off
+    y = 0, or does not close at the heel (its last point back on the base, not at the heel) is
+    rejected at --dry-run with the key and the file."""
+    from ngs_driver.scene import SCENE_DIR
+    from ngs_driver.section import read_profile_csv
+
+    pts = read_profile_csv(SCENE_DIR / "sections" / "pine_flat.csv")
+    cases = {"clockwise": ([pts[0]] + pts[1:][::-1], r"clockwise"),
+             "base_off": ([[x, y + 1.0] for x, y in pts], r"heel.*allowed: \[0, 0\]"),
+             "base_tilted": ([pts[0], [95.71, 0.5]] + pts[2:], r"base .* not on y = 0"),
+             "open": (pts + [[2.0, 0.0]], r"does not close at the heel")}
+    for name, (P, pat) in cases.items():
+        f = tmp_path / f"{name}.csv"
+        f.write_text("# spoiled Pine Flat section\nx,y\n" + "".join(f"{x},{y}\n" for x, y in P))
+        with pytest.raises(ValueError, match=r"geometry.profile_file = '.*" + name + r"\.csv'.*"
+                           + pat):
+            load_scene("pine_flat", [f"geometry.profile_file='{f}'"])
 
 
 def test_unknown_scene_lists_the_shipped_ones():

@@ -155,24 +155,45 @@ def add_water(mesh, res, h_max: float | None = None):
         out.Add(Element2D(mats[el.index], [pmap_d[v.nr] for v in el.vertices]))
     for el in wm.Elements2D():
         out.Add(Element2D(fd_w, [pmap_w[v.nr] for v in el.vertices]))
-    bcs = {}
+    # boundary segments with their edge descriptors: which regions lie on either side of each
+    # segment (domin, domout). The dam's own descriptors are copied (their regions renumbered
+    # as above; the wetted face gets the water on its other side); without them NGSolve could
+    # not tell the blocks' boundaries apart, and a block's space (definedon) took the vertices
+    # of every block's outer boundary: with a lift joint below the water line the stiffness
+    # was singular (issue #23, koyna_1967).
+    from netgen.meshing import EdgeDescriptor
 
-    def bc_index(name):
-        if name not in bcs:
-            bcs[name] = len(bcs) + 1
-            out.SetBCName(bcs[name] - 1, name)
-        return bcs[name]
+    eds = list(src.EdgeDescriptors())
+    names = {}
 
+    def add_ed(name, domin, domout):
+        ed = EdgeDescriptor()
+        ed.domin, ed.domout, ed.name = int(domin), int(domout), name
+        k = out.Add(ed)
+        k = int(k) + 1 if int(k) < len(names) + 1 else int(k)      # 1-based segment index
+        names[k] = name
+        out.SetBCName(k - 1, name)
+        return k
+
+    seg_index = {}
+    for i, ed in enumerate(eds, start=1):
+        name = src.GetBCName(i - 1)
+        domin, domout = (mats.get(d, 0) if d > 0 else 0 for d in (ed.domin, ed.domout))
+        if name == FACE:
+            domout = domout or fd_w
+        seg_index[i] = add_ed(name, domin, domout)
     for el in src.Elements1D():
-        out.Add(Element1D([pmap_d[v.nr] for v in el.vertices],
-                          index=bc_index(src.GetBCName(el.index - 1))))
+        out.Add(Element1D([pmap_d[v.nr] for v in el.vertices], index=seg_index[el.index]))
+    w_index = {}
     n_face = 0
     for el in wm.Elements1D():
         name = wm.GetBCName(el.index - 1)
         if name == FACE:                      # the dam's face edges are already there
             n_face += 1
             continue
-        out.Add(Element1D([pmap_w[v.nr] for v in el.vertices], index=bc_index(name)))
+        if name not in w_index:
+            w_index[name] = add_ed(name, fd_w, 0)
+        out.Add(Element1D([pmap_w[v.nr] for v in el.vertices], index=w_index[name]))
     if n_face != len(chain) - 1:
         raise ValueError(f"reservoir: netgen split the face edges ({n_face} water face edges "
                          f"for {len(chain) - 1} dam face edges)")
@@ -202,6 +223,8 @@ class WaterMatrices:
     b_y: np.ndarray                # (bottom, rigid far end; not the face: that is Q^T r)
     face_x: np.ndarray             # int_face n_x psi  (= Q^T r_x for a rigid face)
     face_y: np.ndarray
+    Cf_far: sp.csr_matrix | None = None   # the far end's part of Cf (radiation), for the
+                                          # energy budget; Cf - Cf_far is the bottom's
 
 
 def water_matrices(mesh, c: float, compressible: bool, alpha: float, far_end: str,
@@ -244,9 +267,14 @@ def water_matrices(mesh, c: float, compressible: bool, alpha: float, far_end: st
         if far_end == "radiation":
             cf = cf + 1.0 / c * p * s * ngs.ds("far_end")
         Cf = mat(cf) if not isinstance(cf, int) else sp.csr_matrix((nf, nf))
+        # the far end's part alone (energy budget: radiated vs absorbed at the bottom); Cf
+        # itself stays the one assembled form, bit for bit as before
+        Cf_far = (mat(1.0 / c * p * s * ngs.ds("far_end")) if far_end == "radiation"
+                  else sp.csr_matrix((nf, nf)))
     else:
         G = sp.csr_matrix((nf, nf))
         Cf = sp.csr_matrix((nf, nf))
+        Cf_far = sp.csr_matrix((nf, nf))
 
     def lin(form):
         f = ngs.LinearForm(Vp)
@@ -261,7 +289,7 @@ def water_matrices(mesh, c: float, compressible: bool, alpha: float, far_end: st
     b_x = -lin(s * ngs.ds("far_end")) if far_end == "rigid" else np.zeros(nf)
     face_x = lin(n[0] * s * ngs.ds(FACE))
     face_y = lin(n[1] * s * ngs.ds(FACE))
-    return WaterMatrices(Vp, free, Hm, G, Cf, b_x, b_y, face_x, face_y)
+    return WaterMatrices(Vp, free, Hm, G, Cf, b_x, b_y, face_x, face_y, Cf_far)
 
 
 def rigid_wall_response(W: WaterMatrices, rho: float, omega: float = 0.0,

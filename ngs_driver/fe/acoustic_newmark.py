@@ -48,6 +48,15 @@ class FluidStepper:
         self.Qf = acoustic.Q[self.rows].tocsr()           # (nf, np)
         self._cache = {}
         self._bp = None
+        # the water's energy (see energy_terms): pi = int p dt, V = int a_g dt (trapezoid per
+        # committed (sub)step, as the scheme), the radiated / absorbed energy and the ground's
+        # work on the water, accumulated from the start of the dynamics
+        self.pi = np.zeros(n)
+        self._V = np.zeros(2)
+        self._acc = np.zeros(3)                     # E_radiated, E_absorbed, W_water
+        self._c0 = None                             # constant of the integrated fluid rows
+        Cf_far = getattr(W, "Cf_far", None)
+        self._Cfar = Cf_far if Cf_far is not None else sp.csr_matrix(W.Cf.shape)
         solver.ext = self
 
     # -- per step size ------------------------------------------------------------------------
@@ -91,6 +100,7 @@ class FluidStepper:
         agx, agy = self.ground(s.time)
         r = -ac.rho * (ac.Q.T @ s.a + self.g[0] * agx + self.g[1] * agy)
         self.pdd = spl.splu(ac.W.G.tocsc()).solve(r) if ac.W.G.nnz else np.zeros_like(r)
+        self._c0 = ac.W.G @ self.pd + ac.W.Cf @ self.p + ac.rho * (ac.Q.T @ s.v)
 
     def rhs(self, h):
         s, ac, W = self.solver, self.ac, self.ac.W
@@ -133,14 +143,73 @@ class FluidStepper:
         cm = self._weights()[1]
         cc = c0 if cm == 1.0 else cm * c0
         p_new = y - cc * self.ac.rho * (X @ s.u[self.rows])
+        self._book(h, self.p, p_new)
         dp = p_new - self.p
         pdd = c0 * dp - c2 * self.pd - c3 * self.pdd
         self.pd = self.pd + h * ((1 - s.gamma) * self.pdd + s.gamma * pdd)
         self.pdd = pdd
         self.p = p_new
 
+    # -- energy -------------------------------------------------------------------------------
+    def _book(self, h, p0, p1):
+        """Accumulate the step's water energy terms (before p, p', p'' move on).
+
+        The fluid rows, summed over the steps with the trapezoid (exact for the Newmark
+        relations), integrate once in time to  G p' + C_f p + H pi + rho Q^T u' + rho g V = c
+        at every step end, pi = int p dt, V = int a_g dt, c from the start state. Paired with
+        the structure's work of the pressure, dpi = h (p0 + p1)/2 and Q^T du = h Q^T (u'0 +
+        u'1)/2 give exactly, per step,
+
+            du . Q (p0 + p1)/2 = -Delta[(p.G p + pi.H pi) / 2 rho] - h pm.C_f pm / rho
+                                 - dpi . g (V0 + V1)/2 + dpi . c / rho,   pm = (p0 + p1)/2,
+
+        so the structure's budget closes with the water's potential energy p.G p / 2 rho
+        (compression, p^2 / 2 rho c^2), kinetic energy pi.H pi / 2 rho (|grad pi|^2 / 2 rho =
+        rho |v|^2 / 2), the energy leaving through the far end and absorbed by the bottom
+        (h pm.C_f pm / rho) and the work of the ground on the water (the last two terms)."""
+        s = self.solver
+        if self._c0 is None:                  # a resumed run without the start state
+            self._c0 = np.zeros_like(p0)
+        pm = 0.5 * (p0 + p1)
+        dpi = h * pm
+        agx0, agy0 = self.ground(s.time - h)
+        agx1, agy1 = self.ground(s.time)
+        V0 = self._V.copy()
+        self._V += 0.5 * h * np.array([agx0 + agx1, agy0 + agy1])
+        Vm = 0.5 * (V0 + self._V)
+        rho = self.ac.rho
+        far = h * float(pm @ (self._Cfar @ pm)) / rho
+        allc = h * float(pm @ (self.ac.W.Cf @ pm)) / rho
+        self._acc += (far, allc - far,
+                      -float(dpi @ (self.g[0] * Vm[0] + self.g[1] * Vm[1]))
+                      + float(dpi @ self._c0) / rho)
+        self.pi = self.pi + dpi
+
+    def energy_terms(self) -> dict:
+        """The water's terms of the run's energy budget [J/m], from the start of the dynamics:
+        kinetic pi.H pi / 2 rho, potential (compression) p.G p / 2 rho, radiated at the far
+        end, absorbed at the bottom (alpha < 1), and the work of the ground on the water
+        (an input, like W_ext). See ``_book``."""
+        W, rho = self.ac.W, self.ac.rho
+        return {"W_water": float(self._acc[2]),
+                "E_water_kin": 0.5 * float(self.pi @ (W.H @ self.pi)) / rho,
+                "E_water_pot": 0.5 * float(self.p @ (W.G @ self.p)) / rho,
+                "E_water_radiated": float(self._acc[0]),
+                "E_water_absorbed": float(self._acc[1])}
+
     def state(self) -> dict:
-        return {"p": self.p, "pd": self.pd, "pdd": self.pdd}
+        return {"p": self.p, "pd": self.pd, "pdd": self.pdd, "pi": self.pi,
+                "energy": np.concatenate([self._V, self._acc,
+                                          self._c0 if self._c0 is not None
+                                          else np.zeros_like(self.p)])}
+
+    def restore(self, d):
+        """The state ``state()`` returned (a checkpoint), energy accumulators included."""
+        self.p, self.pd, self.pdd = (np.array(d[k], dtype=float) for k in ("p", "pd", "pdd"))
+        if "energy" in d:
+            e = np.asarray(d["energy"], dtype=float)
+            self.pi = np.array(d["pi"], dtype=float)
+            self._V, self._acc, self._c0 = e[:2].copy(), e[2:5].copy(), e[5:].copy()
 
 
 class GroundPressureLoad:

@@ -51,15 +51,23 @@ def initial_acceleration(solver, f, massless, a1: float):
     return a
 
 
-def wave_speeds(E: float, nu: float, rho: float) -> tuple[float, float]:
-    """(c_P, c_S) of plane strain: c_P = sqrt((lambda + 2 mu)/rho), c_S = sqrt(mu/rho)."""
-    lam = E * nu / ((1 + nu) * (1 - 2 * nu))
-    mu = E / (2 * (1 + nu))
+def _lame(E: float, nu: float, plane: str = "strain") -> tuple[float, float]:
+    """(lambda, mu) of the 2D idealisation: plane strain, or plane stress (lambda* = E nu /
+    (1 - nu^2))."""
+    lam = E * nu / (1 - nu ** 2) if plane == "stress" else E * nu / ((1 + nu) * (1 - 2 * nu))
+    return lam, E / (2 * (1 + nu))
+
+
+def wave_speeds(E: float, nu: float, rho: float, plane: str = "strain") -> tuple[float, float]:
+    """(c_P, c_S): c_P = sqrt((lambda + 2 mu)/rho), c_S = sqrt(mu/rho), with the 2D model's own
+    lambda (plane strain: the bulk P wave; plane stress: the plate wave sqrt(E / (rho (1 -
+    nu^2)))), so that the dashpots match the model's impedance."""
+    lam, mu = _lame(E, nu, plane)
     return math.sqrt((lam + 2 * mu) / rho), math.sqrt(mu / rho)
 
 
 def dashpot_matrix(mesh, fes, free, boundaries: str, E: float, nu: float, rho: float,
-                   field: int | None = None) -> sp.csr_matrix:
+                   field: int | None = None, plane: str = "strain") -> sp.csr_matrix:
     """Lysmer-Kuhlemeyer dashpots on ``boundaries`` ("a|b|c"): the boundary traction
     -rho c_P (v.n) n - rho c_S (v.t) t, i.e. the matrix integral of rho (c_P n n^T +
     c_S (I - n n^T)) u . v (independent of the normal's sign). ``field``: the component of a
@@ -68,7 +76,7 @@ def dashpot_matrix(mesh, fes, free, boundaries: str, E: float, nu: float, rho: f
 
     from .ngs_helpers import to_scipy
 
-    cp, cs = wave_speeds(E, nu, rho)
+    cp, cs = wave_speeds(E, nu, rho, plane)
     u, v = fes.TnT()
     if field is not None:
         u, v = u[field], v[field]
@@ -104,11 +112,13 @@ class AbsorbingRock:
         mesh, fes, free = model.mesh, model.fes, model.free
         k = len(model.regions) - 1                     # the rock field (last)
         self.E, self.nu, self.rho = rock.E, rock.nu, rock.rho
-        self.cp, self.cs = wave_speeds(rock.E, rock.nu, rock.rho)
-        lam = rock.E * rock.nu / ((1 + rock.nu) * (1 - 2 * rock.nu))
-        self.kxx = lam / (lam + 2 * rock.E / (2 * (1 + rock.nu)))    # sigma_xx / sigma_yy (P)
+        # the model's own 2D idealisation of the rock (fe.model.Material.plane)
+        self.plane = getattr(model.materials.get("rock"), "plane", "strain")
+        self.cp, self.cs = wave_speeds(rock.E, rock.nu, rock.rho, self.plane)
+        lam, mu = _lame(rock.E, rock.nu, self.plane)
+        self.kxx = lam / (lam + 2 * mu)                  # sigma_xx / sigma_yy (P)
         self.C = dashpot_matrix(mesh, fes, free, "rock_bottom|rock_left|rock_right", rock.E,
-                                rock.nu, rock.rho, field=k)
+                                rock.nu, rock.rho, field=k, plane=self.plane)
         u, v = fes.TnT()
         u, v = u[k], v[k]
         self.mass = {}

@@ -11,7 +11,8 @@ independent, so the displacement may jump across the interface, and they are cou
 through the interface law (``B``).  foundation="rigid": dam space only; the rock side of the
 interface is the (fixed) ground, so the gap is the dam displacement.
 
-Plane strain, small strains, isotropic linear elasticity.
+Plane strain (default) or plane stress (``Material.plane``), small strains, isotropic linear
+elasticity; every quantity is per unit thickness (per metre of dam).
 """
 
 from __future__ import annotations
@@ -32,15 +33,35 @@ from .ngs_helpers import find_vertex, to_scipy, vec, vertex_xy_dofs
 G_STANDARD = 9.81
 
 
+PLANES = ("strain", "stress")
+
+
 @dataclass(frozen=True)
 class Material:
+    """Isotropic linear elastic material of a 2D region.  ``plane``: "strain" (eps_zz = 0) or
+    "stress" (sigma_zz = 0: a slice of unit thickness, e.g. a dam monolith between open
+    contraction joints).  Both are written per unit thickness (per metre of dam)."""
     E: float
     nu: float
     rho: float
+    plane: str = "strain"
+
+    def __post_init__(self):
+        if self.plane not in PLANES:
+            raise ValueError(f"plane = {self.plane!r}: not allowed, choose one of {list(PLANES)}")
 
     @property
-    def lam(self) -> float:  # plane strain Lame constants
+    def lam(self) -> float:
+        """The in-plane Lame constant: lambda (plane strain) or lambda* = 2 lambda mu /
+        (lambda + 2 mu) = E nu / (1 - nu^2) (plane stress, sigma_zz = 0 eliminated)."""
+        if self.plane == "stress":
+            return self.E * self.nu / (1 - self.nu ** 2)
         return self.E * self.nu / ((1 + self.nu) * (1 - 2 * self.nu))
+
+    @property
+    def szz_factor(self) -> float:
+        """sigma_zz = szz_factor (sigma_xx + sigma_yy): nu in plane strain, 0 in plane stress."""
+        return self.nu if self.plane == "strain" else 0.0
 
     @property
     def mu(self) -> float:
@@ -123,7 +144,7 @@ class Model:
                                      for r, c in zip(self.regions, gf.components)})
 
     def stress_cf(self, gf):
-        """In-plane Cauchy stress (plane strain), 2x2 CoefficientFunction."""
+        """In-plane Cauchy stress (plane strain or stress, per region), 2x2 CoefficientFunction."""
         import ngsolve as ngs
 
         lam, mu = self._lame_cfs()
@@ -131,11 +152,12 @@ class Model:
         return lam * ngs.Trace(e) * ngs.Id(2) + 2 * mu * e
 
     def von_mises(self, gf):
-        """Von Mises stress [Pa] (plane strain: sigma_zz = nu (sigma_xx + sigma_yy))."""
+        """Von Mises stress [Pa] (plane strain: sigma_zz = nu (sigma_xx + sigma_yy); plane
+        stress: sigma_zz = 0)."""
         import ngsolve as ngs
 
         s = self.stress_cf(gf)
-        nu = self.mesh.MaterialCF({k: m.nu for k, m in self.materials.items()})
+        nu = self.mesh.MaterialCF({k: m.szz_factor for k, m in self.materials.items()})
         sxx, syy, sxy = s[0, 0], s[1, 1], s[0, 1]
         szz = nu * (sxx + syy)
         return ngs.sqrt(0.5 * ((sxx - syy) ** 2 + (syy - szz) ** 2 + (szz - sxx) ** 2)
@@ -396,7 +418,7 @@ def model_kwargs(scene) -> dict:
 
     def mat(region):
         d = getattr(scene.materials, region)
-        return Material(d.E, d.nu, d.rho)
+        return Material(d.E, d.nu, d.rho, getattr(scene.materials, "plane", "strain"))
 
     joints = tuple(geom.JointSpec(j.name, j.elevation, j.h_end or m.h_heel,
                                   j.h_joint or m.h_interface) for j in scene.joints)

@@ -135,6 +135,46 @@ def frequency_response(model, k0_normal, k0_tangential, freqs_hz, eta: float = 0
     return ux, 1.0 - w ** 2 * ux
 
 
+def resonance_peaks(f, amp, min_prominence: float = 0.05) -> dict:
+    """The fundamental resonance of a frequency response |H(f)| sampled on a grid: the FIRST
+    local maximum whose height is at least ``min_prominence`` (5 %) above the deeper of the
+    two minima that separate it from a higher point on either side (so that a ripple is not
+    taken for a resonance), and the global maximum.  The peak's frequency and amplitude are
+    refined by a parabola through the grid maximum and its two neighbours.  Engineers read the
+    fundamental resonance (Fenves & Chopra 1984, UCB/EERC-84/10); on a dam with an empty or
+    incompressible reservoir the global maximum of the crest acceleration is often the second
+    mode's (docs/real_dams.md)."""
+    f = np.asarray(f, float)
+    a = np.abs(np.asarray(amp))
+
+    def refine(i):
+        if 0 < i < a.size - 1:
+            y0, y1, y2 = a[i - 1], a[i], a[i + 1]
+            den = y0 - 2 * y1 + y2
+            if den < 0:
+                d = 0.5 * (y0 - y2) / den              # vertex offset in grid steps, |d| <= 1/2
+                h = 0.5 * (f[i + 1] - f[i - 1])
+                return float(f[i] + d * h), float(y1 - 0.25 * (y0 - y2) * d)
+        return float(f[i]), float(a[i])
+
+    first = None
+    for i in range(1, a.size - 1):
+        if not (a[i] >= a[i - 1] and a[i] > a[i + 1]):
+            continue
+        hl = np.flatnonzero(a[:i] > a[i])
+        hr = np.flatnonzero(a[i + 1:] > a[i])
+        left = a[(hl[-1] if hl.size else 0):i + 1].min()
+        right = a[i:(i + 1 + hr[0] if hr.size else a.size)].min()
+        if a[i] >= (1 + min_prominence) * max(left, right):
+            first = i
+            break
+    g = int(np.argmax(a))
+    out = {"global_max": dict(zip(("f_hz", "amplitude"), refine(g)))}
+    out["fundamental"] = (dict(zip(("f_hz", "amplitude"), refine(first))) if first is not None
+                          else None)
+    return out
+
+
 def modal_extra(model, scene, k0_normal, k0_tangential, out) -> dict:
     """What ``modal`` reports about the reservoir; for compressible acoustic water also the
     crest frequency response (``frequency_response.csv`` / ``.png`` in out)."""
@@ -168,23 +208,36 @@ def modal_extra(model, scene, k0_normal, k0_tangential, out) -> dict:
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
+    peaks = {k: resonance_peaks(f, v) for k, v in curves.items()}
     fig, ax = plt.subplots(figsize=(7, 4))
     for k, lab in (("none", "empty"), ("incompressible", "incompressible water"),
                    ("compressible", f"compressible, alpha = {scene.reservoir.bottom_reflection:g}")):
-        ax.plot(f, np.abs(curves[k]), label=lab)
+        ln, = ax.plot(f, np.abs(curves[k]), label=lab)
+        fp = peaks[k]["fundamental"]
+        if fp is not None:
+            ax.plot([fp["f_hz"]], [fp["amplitude"]], "o", color=ln.get_color(), ms=5)
+            ax.annotate(f"{fp['f_hz']:.2f} Hz", (fp["f_hz"], fp["amplitude"]),
+                        textcoords="offset points", xytext=(4, 4), fontsize=7,
+                        color=ln.get_color())
     ax.axvline(res.acoustic.c / (4 * res.level), color="0.6", ls=":", lw=1,
                label="reservoir f1 = c / 4H")
     ax.set_xlabel("frequency [Hz]")
     ax.set_ylabel("|crest total acceleration| / a_g")
     ax.set_title(f"{scene.name}: crest response to harmonic horizontal ground acceleration "
                  f"(hysteretic eta = {eta:g})", fontsize=9)
-    ax.legend(fontsize=8)
+    ax.legend(fontsize=8, title="o: fundamental resonance (first peak)", title_fontsize=7)
     fig.tight_layout()
     fig.savefig(out / "frequency_response.png", dpi=120)
     plt.close(fig)
-    peaks = {k: float(f[int(np.argmax(np.abs(v)))]) for k, v in curves.items()}
-    d["frequency_response"] = {"files": ["frequency_response.csv", "frequency_response.png"],
-                               "peak_hz": peaks, "hysteretic_eta": eta,
-                               "f1_dry_hz": float(f_dry),
-                               "peak_ratio_compressible_over_dry": peaks["compressible"] / f_dry}
+    fund = {k: v["fundamental"] for k, v in peaks.items()}
+    d["frequency_response"] = {
+        "files": ["frequency_response.csv", "frequency_response.png"],
+        "fundamental_resonance": fund,
+        "fundamental_hz": {k: (v["f_hz"] if v else None) for k, v in fund.items()},
+        "global_max": {k: v["global_max"] for k, v in peaks.items()},
+        # the grid frequency of the global maximum (the only peak reported before issue #23)
+        "peak_hz": {k: float(f[int(np.argmax(np.abs(v)))]) for k, v in curves.items()},
+        "hysteretic_eta": eta, "f1_dry_hz": float(f_dry),
+        "fundamental_ratio_compressible_over_dry": (
+            fund["compressible"]["f_hz"] / f_dry if fund["compressible"] else None)}
     return d

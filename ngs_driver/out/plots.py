@@ -110,6 +110,13 @@ def plot_energy(path, H, joints, title):
     for j in joints:
         ax.plot(t, H[f"{j}_E_stored"], lw=0.8, ls="--", label=f"{j}: stored")
         ax.plot(t, H[f"{j}_E_diss"], lw=0.8, ls=":", label=f"{j}: dissipated")
+    for k, lab in (("W_water", "water: work of the ground"), ("E_water_kin", "water: kinetic"),
+                   ("E_water_pot", "water: compression"),
+                   ("E_water_radiated", "water: radiated (far end)"),
+                   ("E_water_absorbed", "water: absorbed (bottom)"),
+                   ("E_kin_added_mass", "added mass: kinetic (in 'kinetic')")):
+        if k in H and (k != "E_water_absorbed" or np.any(H[k] != 0)):
+            ax.plot(t, H[k], lw=0.9, ls="-." if k.startswith("E_") else "-", label=lab)
     ax.set_ylabel("energy [J/m]")
     ax.grid(alpha=0.3)
     ax.legend(fontsize=7, ncol=2)

@@ -91,9 +91,8 @@ class ReservoirRun:
         for key in self.rows:
             self.rows[key] = list(d[f"rows_{key}"])
         if self.stepper is not None:
-            self.stepper.p = d["fluid_p"].copy()
-            self.stepper.pd = d["fluid_pd"].copy()
-            self.stepper.pdd = d["fluid_pdd"].copy()
+            self.stepper.restore({k[len("fluid_"):]: d[k] for k in d.files
+                                  if k.startswith("fluid_")})
 
     def ground(self, t):
         """Ground acceleration at time t (linear between the record samples, as the loads)."""

@@ -173,7 +173,10 @@ def _run(scene, outdir, resume, progress, max_steps, model, plots, log, freeze) 
     # C = a0 M + a1 K (+ dashpots): the budget's damping work needs no product with C
     energy = EnergyBudget(model.K, model.M, C, w, joints, rayleigh=(damp["a0"], damp["a1"]),
                           C_extra=None if safety.absorbing is None else safety.absorbing.C,
-                          C_lowrank=low)
+                          C_lowrank=low,
+                          fluid=None if rres is None else rres.stepper,
+                          added_mass=getattr(getattr(model, "reservoir", None), "added_mass",
+                                             None))
     # the wall time stays the last column (everything before it is deterministic)
     hist_keys = (list(HIST_KEYS[:-1]) + joints.history_keys() + safety.history_keys()
                  + energy.keys() + ["wall"])
@@ -500,11 +503,16 @@ def energy_summary(H, keys) -> dict:
     """Final budget terms and the largest balance residual relative to the input work."""
     if H["t"].size == 0:
         return {}
-    scale = max(float(np.max(np.abs(H["W_ext"]))), 1e-300)
+    water = "W_water" in keys
+    w_in = H["W_ext"] + H["W_water"] if water else H["W_ext"]
+    scale = max(float(np.max(np.abs(w_in))), 1e-300)
     final = {k: float(H[k][-1]) for k in keys}
     return {"final": final, "max_abs_residual": float(np.max(np.abs(H["residual"]))),
             "max_residual_over_input_work": float(np.max(np.abs(H["residual"]))) / scale,
             "input_work_scale": scale,
-            "definition": "residual = W_ext - (E_kin + E_bulk + E_damp + E_alg + E_stored + E_diss "
-                          "+ E_scaling), "
-                          "from the static state; docs/decisions.md §7.4"}
+            "definition": "residual = W_ext " + ("+ W_water " if water else "")
+                          + "- (E_kin + E_bulk + E_damp + E_alg + E_stored + E_diss + E_scaling"
+                          + (" + E_water_kin + E_water_pot + E_water_radiated + "
+                             "E_water_absorbed" if water else "")
+                          + "), from the static state; docs/decisions.md §7.4, "
+                            "docs/real_dams.md (water)"}

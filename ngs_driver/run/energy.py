@@ -21,6 +21,13 @@ From the static state (t = 0) on, per metre of dam [J/m]:
     residual = W_ext - (E_kin + E_bulk + E_damp + E_alg + E_stored + E_diss + E_scaling)
              = W_joints - (E_stored + E_diss + E_scaling)
 
+With compressible acoustic water (``fluid``: the fluid stepper's ``energy_terms``) the water's
+terms join the budget (issue #23): the ground's work on the water W_water (an input) and the
+water's kinetic and potential energy, the energy radiated at the far end and absorbed at the
+bottom; residual = W_ext + W_water - (... + E_water_kin + E_water_pot + E_water_radiated +
+E_water_absorbed). Westergaard and incompressible water are added masses in M: their kinetic
+energy is inside E_kin already; ``E_kin_added_mass`` = 1/2 v.M_a v shows that part.
+
 For average-acceleration Newmark the kinetic, bulk and damping terms obey the identity
 W_ext = dE_kin + dE_bulk + E_damp + W_joints exactly per step (the trapezoid pairs with the
 scheme: both end-of-step equations hold), so E_alg is zero to the Newton tolerance there (a
@@ -48,6 +55,7 @@ __all__ = ["EnergyBudget", "stored_energy", "ENERGY_KEYS"]
 
 ENERGY_KEYS = ("W_ext", "E_kin", "E_bulk", "E_damp", "E_alg", "E_stored", "E_diss",
                "E_scaling", "residual")
+WATER_KEYS = ("W_water", "E_water_kin", "E_water_pot", "E_water_radiated", "E_water_absorbed")
 
 
 def stored_energy(law, t, g, state) -> np.ndarray:
@@ -118,9 +126,14 @@ class EnergyBudget:
 
     (equal to the direct product to round-off); without it, du.C(v0 + v) directly."""
 
-    def __init__(self, K, M, C, w, joints, rayleigh=None, C_extra=None, C_lowrank=None):
+    def __init__(self, K, M, C, w, joints, rayleigh=None, C_extra=None, fluid=None,
+                 added_mass=None, C_lowrank=None):
         self.K, self.M, self.C, self.w = K, M, C, w
         self.C_lowrank = C_lowrank        # C = C + a0 U W U^T (solve/damping.py), or None
+        # the water: fluid has energy_terms() (compressible acoustic water); added_mass the
+        # Westergaard / incompressible added mass already in M (reported only)
+        self.fluid = fluid if hasattr(fluid, "energy_terms") else None
+        self.added_mass = added_mass
         self.joints = joints              # run.joints.JointSet (names, slices, laws)
         self.rows = []
         self._split = None
@@ -233,6 +246,11 @@ class EnergyBudget:
         kin, bulk, stored, diss = self._levels(u, v, t, g, state, Mv, Ku, scan)
         k0, b0, s0, d0 = self._ref
         e_alg = self.W_ext - (kin - k0) - (bulk - b0) - self.E_damp - self.W_joints
+        wt = None
+        if self.fluid is not None:              # the water's work and energies close it too
+            wt = self.fluid.energy_terms()
+            e_alg += wt["W_water"] - (wt["E_water_kin"] + wt["E_water_pot"]
+                                      + wt["E_water_radiated"] + wt["E_water_absorbed"])
         row = {"W_ext": self.W_ext, "E_kin": kin - k0, "E_bulk": bulk - b0,
                "E_damp": self.E_damp, "E_alg": e_alg}
         for name, s, s_0, d, d_0 in zip(self.joints.names, stored, s0, diss, d0):
@@ -243,11 +261,20 @@ class EnergyBudget:
         row["E_scaling"] = self.E_scaling
         row["residual"] = row["W_ext"] - (row["E_kin"] + row["E_bulk"] + row["E_damp"] + e_alg
                                           + row["E_stored"] + row["E_diss"] + self.E_scaling)
+        if wt is not None:
+            row.update(wt)
+            row["residual"] += wt["W_water"] - (wt["E_water_kin"] + wt["E_water_pot"]
+                                                + wt["E_water_radiated"]
+                                                + wt["E_water_absorbed"])
+        if self.added_mass is not None:
+            row["E_kin_added_mass"] = 0.5 * float(v @ (self.added_mass @ v))
         return row
 
     def keys(self) -> list[str]:
+        water = (list(WATER_KEYS) if self.fluid is not None else []) + (
+            ["E_kin_added_mass"] if self.added_mass is not None else [])
         return list(ENERGY_KEYS[:-1]) + [f"{n}_{k}" for n in self.joints.names
-                                         for k in ("E_stored", "E_diss")] + ["residual"]
+                                         for k in ("E_stored", "E_diss")] + water + ["residual"]
 
     def state(self) -> dict:
         """What a checkpoint must keep to continue the budget bitwise."""

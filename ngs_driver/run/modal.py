@@ -24,7 +24,9 @@ def run_modal(scene, out_dir=None, n_modes: int = 6, model=None):
     d = scene.damping
     damp = damping_from_modes(res, d.ratio, d.modes, d.frequencies or None)
     out = Path(out_dir if out_dir is not None else scene.output.dir)
-    extra = {"scene": scene.name, "nfree": md.nfree}
+    extra = {"scene": scene.name, "nfree": md.nfree,
+             "plane": getattr(scene.materials, "plane", "strain"),
+             "f1_hz": float(res.frequencies_hz[0])}
     if getattr(md, "reservoir", None) is not None:          # docs/decisions.md "Reservoir"
         from ..fe.reservoir import modal_extra
         extra["reservoir"] = modal_extra(md, scene, kn, kt, out)
