@@ -113,7 +113,7 @@ class GroundMotion:
 class Time:
     dt: float = _f(0.002, lo=0.0, hi=1.0, lo_open=True)
     duration: float = _f(10.0, lo=0.0, hi=1e4, lo_open=True)
-    integrator: str = _f("newmark", choices=("newmark", "hht", "generalized-alpha"),
+    integrator: str = _f("generalized-alpha", choices=("newmark", "hht", "generalized-alpha"),
                          doc="time integrator: Newmark (newmark_beta, newmark_gamma), "
                              "Hilber-Hughes-Taylor or Chung-Hulbert generalized-alpha "
                              "(rho_inf); docs/sliding.md")
@@ -132,7 +132,8 @@ class Time:
 
 @dataclass(frozen=True)
 class Damping:
-    model: str = _f("rayleigh", choices=("rayleigh", "stiffness", "rayleigh_deformation"),
+    model: str = _f("rayleigh_deformation",
+                    choices=("rayleigh", "stiffness", "rayleigh_deformation"),
                     doc="rayleigh: C = a0 M + a1 K; stiffness: C = a1 K (bulk K only), the ratio "
                         "at the first of modes/frequencies; rayleigh_deformation: Rayleigh with "
                         "the mass term on the deformation only (not on each block's rigid "

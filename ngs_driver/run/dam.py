@@ -240,6 +240,7 @@ def _run(scene, outdir, resume, progress, max_steps, model, plots, log, freeze) 
         # Fig. 12 shows the state of the largest heel opening while the base still holds
         heel = {"u": u_static.copy(), "t": 0.0, "open": float(solver.g[0, 0])}
         energy.start(solver.u, solver.v, solver.f, solver.t, solver.g, solver.state)
+        joints.set_reference(solver.g)
         update_laws(solver.state)            # the sizes for step 1
     else:
         meta, arrs = ck
@@ -259,6 +260,8 @@ def _run(scene, outdir, resume, progress, max_steps, model, plots, log, freeze) 
         f_static = f_base + safety.static_extra()
         t_static = static_info["wall"]
         u_static = arrs["u_static"]
+        if "joints_static_motion" in arrs:
+            joints.static_motion = arrs["joints_static_motion"]
         hist = History.from_arrays(arrs, hist_keys)
         snaps = {k: [float(v) if k == "t" else (int(v) if k == "step" else v)
                      for v in arrs[f"snap_{k}"]]
@@ -274,6 +277,8 @@ def _run(scene, outdir, resume, progress, max_steps, model, plots, log, freeze) 
 
     def checkpoint(k, dyn_wall):
         arrays = {"u": solver.u, "v": solver.v, "a": solver.a, "f": solver.f,
+                  **collapse_rule.state(),
+                  "joints_static_motion": joints.static_motion,
                   "u_static": u_static, "heel_u": heel["u"], **energy.state(),
                   **safety.checkpoint_arrays()}
         for name in ("t", "g", "_phi", "_active"):
@@ -303,7 +308,10 @@ def _run(scene, outdir, resume, progress, max_steps, model, plots, log, freeze) 
     t_dyn0 = time.perf_counter()
     steps_this_call = 0
     stopped = None
-    stop_slip = scene.time.max_slip
+    from .collapse import CollapseRule
+    collapse_rule = CollapseRule(model, joints, scene.time.max_slip, scene.time.max_rotation)
+    if ck is not None:
+        collapse_rule.restore(ck[1])
     nb = base.stop - base.start
     n_cuts, n_cuts_at = 0, 0
     try:
@@ -353,11 +361,12 @@ def _run(scene, outdir, resume, progress, max_steps, model, plots, log, freeze) 
             if ndeb < nb and solver.g[0, 0] > heel["open"]:
                 heel = {"u": solver.u.copy(), "t": float(times[k]),
                         "open": float(solver.g[0, 0])}
-            if ndeb == nb and abs(jm["base_slip_mean"]) > stop_slip:
-                stopped = {"reason": "failure by sliding: the whole base is debonded and its "
-                                     f"mean slip {abs(jm['base_slip_mean']):.3g} m exceeds "
-                                     f"time.max_slip = {stop_slip:g} m",
-                           "t": float(times[k]), "step": k}
+            f_now = f_base + (safety.uplift.load(safety.uplift.p) if safety.uplift.active
+                              else 0.0)
+            coll = collapse_rule.check(k, times[k], ts.dt, jm, f_now, joints, scan)
+            if coll is not None:
+                stopped = {"reason": f"collapse: {coll['reason']}", "t": coll["time"],
+                           "step": k, "collapse": coll}
                 if progress:
                     bar.write(f"[{scene.name}] stopped at t = {times[k]:.3f} s: "
                               + stopped["reason"])
@@ -414,6 +423,7 @@ def _run(scene, outdir, resume, progress, max_steps, model, plots, log, freeze) 
                           "metadata": dict(getattr(gm, "meta", None) or {})},
         "formulation": FORMULATION,
         "stopped": stopped,
+        "collapse": None if stopped is None else stopped.get("collapse"),
         "crest_point": list(model.crest_point),
         "crest_displacement_note": "upstream crest corner, relative to the rigid ground "
                                    "(rock bottom); includes the static displacement",
@@ -492,10 +502,25 @@ def joint_results(joints, H, snaps, model) -> dict:
             "max_D": float(np.max([np.max(D[sl]) for D in snaps["D"]])),
             "max_D_history": float(H[f"{name}_max_D"].max()) if t.size else 0.0,
             "t_first_debond": float(t[first[0]]) if first.size else None,
+            **block_motion(H, name),
             "final_parameters": law_parts(joints.tables[joints.names.index(name)]) | {
                 "sigma_max": law.cohesive.sigma_max,
                 "friction": None if law.friction is None else law.friction.f},
         }
+    return out
+
+
+def block_motion(H, name) -> dict:
+    """A joint's slip and the rotation of the block above it, from the static state [m, rad]:
+    the largest magnitude over the record and the permanent (final) signed value."""
+    out = {}
+    for key in ("slip", "rotation"):
+        col = H.get(f"{name}_{key}") if hasattr(H, "get") else H[f"{name}_{key}"]
+        if col is None or np.size(col) == 0:
+            out[f"{key}_max"], out[f"{key}_residual"] = 0.0, 0.0
+            continue
+        out[f"{key}_max"] = float(np.max(np.abs(col)))
+        out[f"{key}_residual"] = float(col[-1])
     return out
 
 

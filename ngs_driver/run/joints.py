@@ -17,7 +17,7 @@ __all__ = ["JointSet", "JointScan", "crack_measures", "debonded_measures", "JOIN
 
 # per-joint history columns, prefixed "<joint>_" in timeseries.csv
 JOINT_KEYS = ("crack_length", "crack_length_upstream", "n_debonded", "max_D", "D_upstream",
-              "opening_upstream", "slip_mean", "size_b", "sigma_max")
+              "opening_upstream", "slip_mean", "size_b", "sigma_max", "slip", "rotation")
 
 
 def crack_measures(state, w) -> tuple[float, float, int]:
@@ -184,6 +184,40 @@ class JointSet:
         if any(sl.step not in (None, 1) or sl.stop <= sl.start for sl in self.slices):
             raise ValueError("joints: every joint must be a non-empty contiguous slice")
         self._keys = [tuple(f"{n}_{k}" for k in JOINT_KEYS) for n in self.names]
+        # the rotation of the block above a joint relative to the face below: the weighted
+        # least-squares slope of the opening g_N(x) along the joint (counter-clockwise
+        # positive: a rigid rotation theta about any point opens the joint by theta (x - x0))
+        self._rot = []
+        for sl in self.slices:
+            x, w = self.x[sl], self.w[sl]
+            xc = x - np.dot(w, x) / w.sum()
+            self._rot.append(w * xc / np.dot(w, xc * xc))
+        self._ref = np.zeros((len(self.names), 2))       # (slip, rotation) of the static state
+
+    def kinematics(self, gap) -> np.ndarray:
+        """(joints, 2): mean slip (w-weighted mean g_T) [m] and rotation of the block above
+        (counter-clockwise positive) [rad] of every joint, absolute (not relative to the
+        static state)."""
+        out = np.empty((len(self.names), 2))
+        for i, (sl, wsum, c) in enumerate(zip(self.slices, self._wsum, self._rot)):
+            g = gap[sl]
+            out[i, 0] = float(np.dot(self.w[sl], g[:, 1]) / wsum)
+            out[i, 1] = float(np.dot(c, g[:, 0]))
+        return out
+
+    @property
+    def static_motion(self) -> np.ndarray:
+        """(joints, 2) static slip and rotation (``set_reference``)."""
+        return self._ref.copy()
+
+    @static_motion.setter
+    def static_motion(self, value):
+        self._ref = np.array(value, dtype=np.float64).reshape(len(self.names), 2)
+
+    def set_reference(self, gap):
+        """The static state's slip and rotation: the history's "<joint>_slip" and
+        "<joint>_rotation" are measured from them (what the earthquake did)."""
+        self._ref = self.kinematics(gap)
 
     def __len__(self):
         return len(self.names)
@@ -254,8 +288,11 @@ class JointSet:
                                                         self._wsum, self._keys)):
             g = gap[sl]
             tot, up, dmax, _ = flts[i]
+            slip = float(np.dot(self.w[sl], g[:, 1]) / wsum)
+            rot = float(np.dot(self._rot[i], g[:, 0]))
             vals = (tot, up, ints[i][0], dmax, float(damage[sl.start]), float(g[0, 0]),
-                    float(np.dot(self.w[sl], g[:, 1]) / wsum), b, law.cohesive.sigma_max)
+                    slip, b, law.cohesive.sigma_max, slip - self._ref[i, 0],
+                    rot - self._ref[i, 1])
             out.update(zip(keys, vals))
         return out
 

@@ -154,6 +154,47 @@ class GroundMotion:
 
 
 # --------------------------------------------------------------------------------------------
+# analytic pulses (the rigid-block studies of Newmark 1965 and their successors)
+# --------------------------------------------------------------------------------------------
+PULSE_SHAPES = ("sine", "half-sine")
+PULSE_PREFIX = "pulse:"
+
+
+def pulse_record(spec: str, duration: float, dt: float) -> GroundMotion:
+    """``pulse:<shape>:<peak in g>:<period s>[:<cycles>]``: a horizontal acceleration pulse
+    a(t) = A sin(2 pi t / T) for ``cycles`` full periods ("sine", default 1 cycle) or
+    A sin(pi t / T) for 0 <= t <= T ("half-sine"), then zero, sampled at ``dt`` (the run's
+    step: no resampling) up to ``duration``. Raises ValueError naming the part that is wrong."""
+    parts = spec[len(PULSE_PREFIX):].split(":") if spec.startswith(PULSE_PREFIX) else []
+    allowed = ("allowed: 'pulse:<shape>:<peak in g>:<period in s>[:<cycles>]' with shape "
+               f"{' or '.join(map(repr, PULSE_SHAPES))}, e.g. 'pulse:sine:0.5:0.4:2'")
+    if len(parts) not in (3, 4) or parts[0] not in PULSE_SHAPES:
+        raise ValueError(f"ground_motion.record = {spec!r}: not a pulse; {allowed}")
+    try:
+        A, T = float(parts[1]), float(parts[2])
+        n = int(parts[3]) if len(parts) == 4 else 1
+    except ValueError:
+        raise ValueError(f"ground_motion.record = {spec!r}: the peak, period and cycles must be "
+                         f"numbers; {allowed}") from None
+    if not (math.isfinite(A) and math.isfinite(T) and T > 0 and n >= 1 and abs(A) <= 10):
+        raise ValueError(f"ground_motion.record = {spec!r}: out of range; allowed: |peak| <= "
+                         "10 g, period > 0 s, cycles >= 1")
+    if parts[0] == "half-sine" and n != 1:
+        raise ValueError(f"ground_motion.record = {spec!r}: a half-sine has one half cycle; "
+                         f"{allowed}")
+    t = dt * np.arange(int(round(duration / dt)) + 1)
+    length = T * n if parts[0] == "sine" else T
+    w = (2.0 if parts[0] == "sine" else 1.0) * math.pi / T
+    ax = np.where(t <= length + 1e-12 * T, A * G * np.sin(w * t), 0.0)
+    if t.size < MIN_POINTS:
+        t = dt * np.arange(MIN_POINTS)
+        ax = np.zeros(MIN_POINTS)
+    return GroundMotion(t, ax, np.zeros_like(ax), dt, units="g", label=spec, synthetic=True,
+                        source=f"analytic {parts[0]} pulse: peak {A:g} g, period {T:g} s, "
+                               f"{n} cycle(s)")
+
+
+# --------------------------------------------------------------------------------------------
 # readers / writer
 # --------------------------------------------------------------------------------------------
 def _units_factor(units: str, where: str) -> float:

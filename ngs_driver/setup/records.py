@@ -22,6 +22,8 @@ def load_ground_motion(scene):
         gm = load_record(rec, vertical)
     elif rec in DEFAULT_RECORDS:
         gm = gmod.load_default()
+    elif rec.startswith(gmod.PULSE_PREFIX):      # an analytic pulse on the run's own grid
+        gm = gmod.pulse_record(rec, g.start + scene.time.duration, scene.time.dt)
     else:
         p = pathlib.Path(rec)
         if not p.exists():

@@ -342,12 +342,10 @@ class NewmarkSolver:
         self.law = law
         self._set_k0(law)
         self._wd = np.repeat(self.w, 2)                     # W on the (2 npts) gap vector
-        self._Idofs = np.unique(self.B.indices)               # DOFs the interface touches
-        self._BI = self.B[:, self._Idofs].tocsr()            # (2 npts, |I|)
-        self._BIT = self._BI.T.tocsr()
-        # B_I = G Delta: Delta^T (|I| x r), G (2 npts x r) sparse; S = G (Delta X Delta^T) G^T
-        self._G, self._Dt = _relative_dofs(self._BI)
-        self._GT = self._G.T.tocsr()
+        # the gap is g = B u + g_offset: g_offset is zero until a sliding joint is re-paired
+        # (``set_operator``), which keeps g continuous across the new pairing
+        self.g_offset = None
+        self._set_interface_dofs()
         self._ptp = self._ptp_of = self._ptp_map = None   # G^T Dw G pattern (_ptp_pattern)
         self._ptp_flat = None
         self._gmres_wk = None
@@ -373,6 +371,40 @@ class NewmarkSolver:
         self._rhs_next = None            # (h, u, v, a, M x, C y) formed by step_products
 
     # ------------------------------------------------------------------ set-up / parameters
+    def _set_interface_dofs(self):
+        """The interface DOFs I of B and the relative-DOF structure B_I = G Delta."""
+        self._Idofs = np.unique(self.B.indices)               # DOFs the interface touches
+        self._BI = self.B[:, self._Idofs].tocsr()            # (2 npts, |I|)
+        self._BIT = self._BI.T.tocsr()
+        # B_I = G Delta: Delta^T (|I| x r), G (2 npts x r) sparse; S = G (Delta X Delta^T) G^T
+        self._G, self._Dt = _relative_dofs(self._BI)
+        self._GT = self._G.T.tocsr()
+
+    def set_operator(self, B, g_offset=None):
+        """Replace the gap operator between steps (a sliding joint paired anew with the face
+        below it: finite sliding, run/sliding): g = B u + g_offset. The offset that keeps the
+        committed gap is formed here when ``g_offset`` is None: g_offset = g_n - B u_n. The
+        effective matrices are factorised anew (they hold B^T W K0 B)."""
+        B = sp.csr_matrix(B)
+        if B.shape != self.B.shape:
+            raise ValueError(f"set_operator: B of shape {B.shape}, expected {self.B.shape}")
+        if g_offset is None:
+            g_offset = self.g.ravel() - B @ self.u
+        self.B = B
+        self.BT = B.T.tocsr()
+        self.g_offset = np.asarray(g_offset, dtype=np.float64).copy()
+        self._set_interface_dofs()
+        self._BtWK0B = (self.BT @ sp.diags(self._k0v * np.repeat(self.w, 2)) @ self.B).tocsr()
+        self._cache.clear()
+        self._static_cache = None
+
+    def _gap(self, u):
+        """g = B u (+ g_offset) as a flat (2 npts) vector."""
+        g = self.B @ u
+        if self.g_offset is not None:
+            g += self.g_offset
+        return g
+
     def _set_k0(self, law, debonded=None):
         # (npts, 2): k_N, k_T per point (a cracked point: the contact and stick stiffness)
         self.k0p = initial_stiffness(law, self.npts, debonded)
@@ -420,7 +452,7 @@ class NewmarkSolver:
             self.a = np.array(a, dtype=float)
         if f is not None:
             self.f = np.array(f, dtype=float)
-        g = (self.B @ self.u).reshape(-1, 2)
+        g = self._gap(self.u).reshape(-1, 2)
         t, _, _ = self.law.evaluate(np.ascontiguousarray(g), self.state, dt=self.dt)
         self.g, self.t = g, t
         self._phi = (t.ravel() - self._k0v * g.ravel())
@@ -625,9 +657,11 @@ class NewmarkSolver:
         if int(self._active.sum()) > self.few_max:
             u_lin = None
             g_lin = _mv(self._BI, e.factor.backward_at(z_lin))
+            if self.g_offset is not None:
+                g_lin += self.g_offset
         else:
             u_lin = e.factor.backward(z_lin)
-            g_lin = self.B @ u_lin
+            g_lin = self._gap(u_lin)
         wd, k0v = self._wd, self._k0v
         n2 = 2 * self.npts
         act = self._active.copy()
@@ -838,7 +872,7 @@ class NewmarkSolver:
         fscale = max(np.linalg.norm(rhs), 1e-300)
 
         def resid(u):
-            g = self.B @ u
+            g = self._gap(u)
             t, T, new = law.evaluate(g.reshape(-1, 2), state, dt=self._law_dt(h))
             r = rhs - A_lin @ u - c * (self.BT @ (wd * t.ravel()))
             return g, t, T, new, r

@@ -1,0 +1,103 @@
+"""Finite sliding in a run: each sliding joint is paired anew with the face below it.
+
+After every committed step, a joint whose points have slid, since their last pairing, by more
+than ``solver.pairing_tolerance`` times the length of the lower-face segment below them is
+paired anew (``fe.pairing``): its gap rows take the lower face's displacement at the point now
+below each point of the upper face, and the gap offset keeps the committed gap continuous (no
+traction jump from the pairing itself). The solver's effective matrices are factorised anew.
+Joints that do not slide cost one comparison per step. A point with no face below it (it slid
+past the end of a lift joint) opens: its normal gap is set 1 m open.
+"""
+from __future__ import annotations
+
+import numpy as np
+import scipy.sparse as sp
+
+__all__ = ["JointPairing", "OPEN_GAP"]
+
+OPEN_GAP = 1.0        # m: the normal gap given to a point that has no face below it
+
+
+class JointPairing:
+    """The current pairing of every joint that can slide on a deformable face."""
+
+    def __init__(self, model, slices, names, B, tolerance: float):
+        from ..fe.pairing import lower_faces, upper_columns
+
+        self.tol = float(tolerance)
+        faces = lower_faces(model)
+        self.joints = []                      # (name, slice, LowerFace, B rows of the upper)
+        B = sp.csr_matrix(B)
+        self.x = np.array(model.interface.x if hasattr(model, "interface") else [])
+        for name, sl in zip(names, slices):
+            upper, face = faces.get(name, (None, None))
+            if face is None:
+                continue
+            cols = upper_columns(model, upper)
+            rows = B[2 * sl.start:2 * sl.stop]
+            Bup = rows.multiply(cols[None, :]).tocsr()
+            Bup.eliminate_zeros()
+            self.joints.append((name, sl, face, Bup))
+        self.shift = np.zeros(B.shape[0] // 2)          # s at the last pairing, per point
+        self.repairs = 0
+        self.shape = B.shape
+
+    @property
+    def active(self) -> bool:
+        return bool(self.joints)
+
+    def update(self, solver) -> bool:
+        """Pair anew the joints that slid beyond the tolerance; True if B changed."""
+        if not self.joints:
+            return False
+        g = solver.g
+        due = []
+        for name, sl, face, Bup in self.joints:
+            s = g[sl, 1]
+            d = np.abs(s - self.shift[sl])
+            if np.any(d > self.tol * face.size_at(self.x[sl] + self.shift[sl])):
+                due.append((name, sl, face, Bup))
+        if not due:
+            return False
+        B = solver.B.tolil(copy=True)
+        opened = np.zeros(g.shape[0], bool)
+        for name, sl, face, Bup in due:
+            s = g[sl, 1].copy()
+            low, off_face = face.rows(self.x[sl] + s, 0, sl.stop - sl.start,
+                                      (2 * (sl.stop - sl.start), self.shape[1]))
+            new = (Bup + low).tolil()
+            B[2 * sl.start:2 * sl.stop] = new
+            self.shift[sl] = s
+            opened[sl] = off_face
+        B = B.tocsr()
+        B.eliminate_zeros()
+        offset = solver.g.ravel() - B @ solver.u
+        if opened.any():                          # no face below: the point opens
+            iN = 2 * np.flatnonzero(opened)
+            offset[iN] += np.maximum(-solver.g[opened, 0], 0.0) + OPEN_GAP
+        solver.set_operator(B, offset)
+        self.repairs += 1
+        return True
+
+    def state(self) -> dict:
+        return {"pairing_shift": self.shift.copy(),
+                "pairing_repairs": np.array([self.repairs], dtype=np.int64)}
+
+    def restore(self, arrs, solver, offset):
+        """The pairing of a checkpoint (the shifts it was built at and the solver's offset)."""
+        if "pairing_shift" not in arrs or not self.joints:
+            return
+        self.shift = np.array(arrs["pairing_shift"], dtype=np.float64)
+        self.repairs = int(np.asarray(arrs["pairing_repairs"])[0])
+        if offset is None:
+            return
+        B = solver.B.tolil(copy=True)
+        for name, sl, face, Bup in self.joints:
+            if not np.any(self.shift[sl]):
+                continue
+            low, _ = face.rows(self.x[sl] + self.shift[sl], 0, sl.stop - sl.start,
+                               (2 * (sl.stop - sl.start), self.shape[1]))
+            B[2 * sl.start:2 * sl.stop] = (Bup + low).tolil()
+        B = B.tocsr()
+        B.eliminate_zeros()
+        solver.set_operator(B, offset)
