@@ -56,7 +56,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--dry-run", action="store_true")
     p = sub.add_parser("compare", help="compare finished runs (Fig. 10/11 overlays, table)")
     p.add_argument("dirs", nargs="+", help="results directories (alpha = 2 first)")
-    p.add_argument("--out", default="out/koyna_compare")
+    p.add_argument("--out", default="results/koyna_compare")
     p = sub.add_parser("modal", help="natural frequencies -> modal.json")
     _add_scene_args(p)
     p.add_argument("-n", type=int, default=6, help="number of modes")
@@ -149,7 +149,7 @@ def paper_dirs(base: pathlib.Path) -> dict:
 
 
 def cmd_run_paper(a) -> int:
-    base = pathlib.Path(a.out or "out")
+    base = pathlib.Path(a.out or "results")
     scenes = {}
     try:
         for (lab, d), alpha in zip(paper_dirs(base).items(), (2.0, 1.0)):
@@ -178,7 +178,7 @@ def cmd_run_paper(a) -> int:
 
 
 def _compare(runs: dict, out) -> int:
-    from .out.report import compare_runs
+    from .post.report import compare_runs
     for d in runs.values():
         if not (pathlib.Path(d) / "summary.json").exists():
             return _err(f"compare: {d} has no summary.json (run not finished)")

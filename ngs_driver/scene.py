@@ -191,7 +191,8 @@ class Joint:
 
 @dataclass(frozen=True)
 class Output:
-    dir: str = _f("out/koyna")
+    dir: str = _f("", doc="results directory; empty: results/<scene name> (results/ is "
+                  "git-ignored)")
     vtk_every: int = _f(0, lo=0, hi=10 ** 9, doc="0: no VTK output")
     checkpoint_every: int = _f(250, lo=0, hi=10 ** 9, doc="steps between checkpoints; 0: none")
     snapshots: int = _f(10, lo=1, hi=1000, doc="number of D(x) snapshots over the record")
@@ -281,7 +282,7 @@ class PointPath:
 
 @dataclass(frozen=True)
 class PointOutput:
-    dir: str = _f("out/material_point")
+    dir: str = _f("", doc="results directory; empty: results/<scene name>")
 
 
 @dataclass(frozen=True)
@@ -321,7 +322,7 @@ class DCBScene:
     description: str = ""
     kind: str = _f("dcb", choices=("dcb",))
     dcb: DCBSection = field(default_factory=DCBSection)
-    output: PointOutput = field(default_factory=lambda: PointOutput("out/dcb"))
+    output: PointOutput = field(default_factory=PointOutput)
 
     def to_dict(self) -> dict:
         return _to_plain(dataclasses.asdict(self))
@@ -614,7 +615,7 @@ def from_dict(raw: dict, overrides=None):
     """A ``Scene`` (kind "koyna", the default), ``MaterialPointScene`` or ``DCBScene``."""
     root = _root(raw)
     if root is not Scene:
-        return _build(root, apply_overrides(raw, overrides), "")
+        return _default_output(_build(root, apply_overrides(raw, overrides), ""))
     raw, overrides = _reservoir_alias(raw, overrides)
     raw = apply_overrides(raw, overrides)
     if isinstance(raw.get("reservoir"), dict) and "level" in raw["reservoir"]:
@@ -623,7 +624,16 @@ def from_dict(raw: dict, overrides=None):
         raw.setdefault("loads", {})["reservoir_level"] = raw["reservoir"]["level"]
     sc = _build(root, raw, "")
     _reservoir_checks(sc)
-    return sc
+    return _default_output(sc)
+
+
+def _default_output(sc):
+    """``output.dir`` left empty: ``results/<scene name>`` (one git-ignored root for every
+    run's folder, apart from the package's own folders)."""
+    if sc.output.dir:
+        return sc
+    return dataclasses.replace(sc, output=dataclasses.replace(sc.output,
+                                                              dir=f"results/{sc.name}"))
 
 
 def _reservoir_alias(raw: dict, overrides):

@@ -131,7 +131,7 @@ def test_strong_joint_behaves_like_no_joint(tmp_path):
                       crest_point=md.crest_point)
     assert md0.nfree < md.nfree                 # the neck's nodes are shared when glued
     s_0 = run(sc0, tmp_path / "glued", progress=False, plots=False, model=md0)
-    from ngs_driver.out.files import read_csv
+    from ngs_driver.post.files import read_csv
     a = read_csv(tmp_path / "joint" / "timeseries.csv")
     b = read_csv(tmp_path / "glued" / "timeseries.csv")
     amp = np.max(np.abs(b["crest_ux"]))

@@ -74,7 +74,7 @@ def test_mesh_triangles_from_netgen_arrays(smoke_model):
     """The figures' triangles from netgen's element arrays are NGSolve's element loop's."""
     import ngsolve as ngs
 
-    from ngs_driver.out.plots import _mesh_triangles
+    from ngs_driver.post.plots import _mesh_triangles
     P, reg = _mesh_triangles(smoke_model.mesh)
     mesh = smoke_model.mesh
     V = np.array([v.point for v in mesh.vertices])
@@ -152,7 +152,7 @@ def test_smoke_unchanged_by_the_pipeline_restructure(smoke_run):
     changes the load vector by round-off (2e-12 measured) and the results by ~3e-12."""
     out, s = smoke_run
     ref = np.load(pathlib.Path(__file__).parent / "data" / "koyna_smoke_before.npz")
-    from ngs_driver.out.files import read_csv
+    from ngs_driver.post.files import read_csv
     H = read_csv(out / "timeseries.csv")
     fs = np.load(out / "final_state.npz")
     for got, want in ((H["crest_ux"], ref["crest_ux"]), (H["crest_uy"], ref["crest_uy"]),

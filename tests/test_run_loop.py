@@ -256,7 +256,7 @@ def test_seismic_load_is_the_numpy_expression():
 def test_csv_text_is_the_shortest_repr_of_every_value():
     """The CSV writer formats low-cardinality columns once per distinct bit pattern: the text
     is still repr() of every value, row by row (+-0.0, nan, inf kept apart)."""
-    from ngs_driver.out.files import _csv_text
+    from ngs_driver.post.files import _csv_text
     rng = np.random.default_rng(5)
     n = 200
     flags = np.where(rng.random(n) < 0.5, 0.0, -0.0)

@@ -8,7 +8,7 @@ import pytest
 pytest.importorskip("ngsolve")
 
 from ngs_driver.fe.model import build_from_scene  # noqa: E402
-from ngs_driver.out.files import read_csv  # noqa: E402
+from ngs_driver.post.files import read_csv  # noqa: E402
 from ngs_driver.run.dam import run  # noqa: E402
 from ngs_driver.run.joints import JointSet, crack_measures  # noqa: E402
 from ngs_driver.run.safety import Safety  # noqa: E402
@@ -217,7 +217,7 @@ def test_resume_with_crack_dependent_uplift_and_screening(tmp_path):
 def test_compare_results_md_carries_the_safety_table(elastic_run, tmp_path):
     """`compare` (make run's results.md) lists each run's base FS: static, minimum, post-
     earthquake and the 1.3 check, formatted from summary.json."""
-    from ngs_driver.out.report import compare_runs
+    from ngs_driver.post.report import compare_runs
 
     out, s = elastic_run
     compare_runs({"alpha2": out}, tmp_path)

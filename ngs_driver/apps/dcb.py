@@ -38,7 +38,7 @@ import pathlib
 
 from interfacelaw import CohesiveParams, ContactParams, InterfaceLaw
 
-from ..out.files import atomic_write_json, atomic_write_text, environment_info
+from ..post.files import atomic_write_json, atomic_write_text, environment_info
 from ..fe.coupling import block_diag, build_interface
 from ..fe.model import Material
 from ..fe.ngs_helpers import find_vertex, to_scipy

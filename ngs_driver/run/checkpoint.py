@@ -7,7 +7,7 @@ import threading
 
 import numpy as np
 
-from ..out.files import atomic_write_bytes, atomic_write_text, json_text, npz_bytes
+from ..post.files import atomic_write_bytes, atomic_write_text, json_text, npz_bytes
 
 class Checkpointer:
     """Writes ``checkpoint.npz`` (arrays) + ``checkpoint.json`` (meta) atomically.

@@ -29,7 +29,7 @@ import time
 import numpy as np
 from numba import njit
 
-from ..out.files import atomic_savez, atomic_write_json, environment_info
+from ..post.files import atomic_savez, atomic_write_json, environment_info
 from ..setup import FORMULATION, characteristic_times, law_parts, validate
 from ..solve.joint_laws import initial_stiffness
 from .checkpoint import Checkpointer
@@ -75,9 +75,9 @@ def run(scene, outdir=None, resume: bool = False, progress: bool = True,
 
 def _run(scene, outdir, resume, progress, max_steps, model, plots, log, freeze) -> dict:
     from ..fe.modal import damping_from_modes, k0_from_scene, modal_analysis
-    from ..out.results import write_run_outputs
-    from ..out import vtk as outvtk
-    from ..out.report import format_summary
+    from ..post.results import write_run_outputs
+    from ..post import vtk as outvtk
+    from ..post.report import format_summary
     from ..solve.newmark import NewmarkSolver, SolverError
 
     T0 = time.perf_counter()
@@ -144,7 +144,7 @@ def _run(scene, outdir, resume, progress, max_steps, model, plots, log, freeze) 
     Mrx, Mry = model.M @ model.r_x, model.M @ model.r_y
     rres = None
     if getattr(model, "reservoir", None) is not None:     # hydrodynamics (fe/reservoir.py)
-        from ..out.reservoir_outputs import ReservoirRun
+        from ..post.reservoir_outputs import ReservoirRun
         Mrx, Mry = model.reservoir.seismic_vectors(Mrx, Mry)
         rres = ReservoirRun.create(model, scene, solver, times, ax, ay, resume, out)
         if plots and scene.output.vtk_every > 0:
@@ -380,7 +380,7 @@ def _run(scene, outdir, resume, progress, max_steps, model, plots, log, freeze) 
     post = safety.post_earthquake(solver, f_base)
     post["wall"] = time.perf_counter() - t_pe
     safety_sum = safety.summary(H, ts.dt)
-    from ..out.safety_plots import write_safety_outputs
+    from ..post.safety_plots import write_safety_outputs
     files.extend(write_safety_outputs(out, scene, gm, H, static_info.get("joints"), post,
                                       safety_sum, plots=plots, screening=safety.screening))
     walls = H["wall"]

@@ -287,7 +287,7 @@ def demand_measures(summary: dict | None, rec: dict, model, base=slice(None)) ->
 
 def execute(spec: dict, root: str) -> dict:
     """One IDA run (a Dask task). Returns the result dict, also written to result.json."""
-    from ..out.files import atomic_write_json
+    from ..post.files import atomic_write_json
     from ..scene import from_dict
     from ..solve.newmark import SolverError
 
@@ -476,7 +476,7 @@ def run_ida(scene, *, suite: str, im: str, levels, out, records=None, components
         cl, cluster = (client, None) if client is not None else _connect(workers, scheduler, say)
         out.mkdir(parents=True, exist_ok=True)
         if T1_info is not None:
-            from ..out.files import atomic_write_json
+            from ..post.files import atomic_write_json
             atomic_write_json(out / f"modal_{h}.json", T1_info)
         try:
             try:
@@ -551,7 +551,7 @@ def _submit(client, pending, out, done, say, progress):
     from dask.distributed import as_completed
     from tqdm import tqdm
 
-    from ..out.files import atomic_write_json
+    from ..post.files import atomic_write_json
     futs = {}
     for p in pending:
         f = client.submit(execute, p, str(out.resolve()), key=f"ida-{p['id']}",
@@ -626,7 +626,7 @@ def _error_row(p, e) -> dict:
 # outputs
 # ---------------------------------------------------------------------------------------------
 def write_outputs(out, rows, im, failed, plots, study) -> list[str]:
-    from ..out.files import atomic_write_json, atomic_write_text
+    from ..post.files import atomic_write_json, atomic_write_text
     out = pathlib.Path(out)
     keys = list(ROW_KEYS) + sorted({k for r in rows for k in r} - set(ROW_KEYS))
     buf = io.StringIO()
@@ -663,7 +663,7 @@ def _plots(out, rows, frag, im) -> list[str]:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from ..out.files import atomic_write_bytes
+    from ..post.files import atomic_write_bytes
 
     def save(fig, name):
         b = io.BytesIO()

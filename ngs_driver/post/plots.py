@@ -1,6 +1,6 @@
 """Figures of a run (paper Figs. 8b, 10, 11, 12 style) and VTK, fed arrays and the model.
 
-All files are written atomically (``out.files``).  Plot titles carry the record label
+All files are written atomically (``post.files``).  Plot titles carry the record label
 (with "SYNTHETIC" for the shipped motion).  matplotlib is used with the Agg backend; NGSolve
 is needed only for the mesh/stress plots and VTK (they take the model).
 """
@@ -33,7 +33,7 @@ PNG_COMPRESS_LEVEL = 3
 
 def save_png(fig, path, dpi, bbox_inches=None):
     """``fig.savefig(path, dpi=dpi, bbox_inches=...)`` as a PNG written atomically
-    (``out.files``), zlib level ``PNG_COMPRESS_LEVEL``. Returns the file name."""
+    (``post.files``), zlib level ``PNG_COMPRESS_LEVEL``. Returns the file name."""
     buf = _io.BytesIO()
     fig.savefig(buf, format="png", dpi=dpi, bbox_inches=bbox_inches,
                 pil_kwargs={"compress_level": PNG_COMPRESS_LEVEL})
