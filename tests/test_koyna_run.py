@@ -9,7 +9,7 @@ import pytest
 pytest.importorskip("ngsolve")
 
 from ngs_driver.run.dam import RunInterrupted, run  # noqa: E402
-from ngs_driver.run.record import crack_measures  # noqa: E402
+from ngs_driver.run.joints import crack_measures  # noqa: E402
 from ngs_driver.setup import build_law, describe  # noqa: E402
 from ngs_driver.fe.model import build_from_scene  # noqa: E402
 from ngs_driver.scene import load_scene  # noqa: E402

@@ -10,7 +10,7 @@ from interfacelaw import CohesiveParams, ContactParams, InterfaceLaw
 from ngs_driver.run.energy import EnergyBudget
 from ngs_driver.solve.products import FusedPair
 from ngs_driver.run.joints import JointSet, crack_measures
-from ngs_driver.run.record import History
+from ngs_driver.run.history import History
 from ngs_driver.scene import load_scene
 
 

@@ -35,7 +35,7 @@ from ..solve.joint_laws import initial_stiffness
 from .checkpoint import Checkpointer
 from .energy import EnergyBudget
 from .joints import JointSet
-from .record import HIST_KEYS, History, results_from_history, snapshot_steps
+from .history import HIST_KEYS, History, results_from_history, snapshot_steps
 from .safety import Safety
 
 

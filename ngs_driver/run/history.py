@@ -1,11 +1,12 @@
-"""Per-step history of a run and the measures taken from it (no NGSolve)."""
+"""The per-step history of a run (one row of floats per step: the columns of timeseries.csv)
+and the numbers taken from it for summary.json (no NGSolve). Not to be confused with a
+ground-motion record (``setup.records``)."""
 from __future__ import annotations
 
 import operator
 
 import numpy as np
 
-from .joints import crack_measures  # noqa: F401 (the measure lives with the joints)
 
 # per-step histories: the CSV column order. The unprefixed crack/damage columns are the base's
 # (kept under their original names; "base_<key>" columns hold the same values with the lift
