@@ -87,13 +87,6 @@ def _norm(x, y):
     return np.sqrt(x * x + y * y)
 
 
-@njit(cache=True, error_model="numpy")
-def _point(gN, gT1, gT2, ko, Do, sepo, s1, s2, coh, contact, friction, damage, rdt):
-    """One material point, scalars in, scalars out (the general specialisation of _law)."""
-    return _law(gN, gT1, gT2, ko, Do, sepo, s1, s2, coh, contact, friction, damage, rdt, False,
-                _NO_SPEC, True)
-
-
 @njit(cache=True, inline="always", error_model="numpy")
 def _law(gN, gT1, gT2, ko, Do, sepo, s1, s2, coh, contact, friction, damage, rdt, fast,
          spec, three):

@@ -415,10 +415,6 @@ class AcousticReservoir:
                       [Z.T, W.Cf]], format="csr")
         return Kc, Mc, Cc
 
-    def coupled_loads(self, f_u, agx, agy):
-        """Right-hand side of the fluid rows: -rho (g_x a_gx + g_y a_gy)."""
-        return np.concatenate([f_u, -self.rho * (self.g_x * agx + self.g_y * agy)])
-
     def energy(self, u, v, p, pdot, pi, K, M):
         """Total energy of the undamped coupled system: 1/2 v M v + 1/2 u K u + 1/(2 rho)
         (p G p + pi H pi), pi = int p dt (the fluid's kinetic energy is 1/(2 rho) pi H pi)."""

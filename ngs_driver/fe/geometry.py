@@ -86,14 +86,6 @@ def _interface_stations(x0: float, x1: float, h_heel: float, h_int: float,
     return [(x1 - s, h) for s, h in st]
 
 
-def _add_poly(geo, pts_h, leftdomain, rightdomain, bcs, maxhs):
-    """Append a polygon chain; pts_h is a list of point indices."""
-    n = len(pts_h)
-    for i in range(n):
-        geo.Append(["line", pts_h[i], pts_h[(i + 1) % n]], leftdomain=leftdomain,
-                   rightdomain=rightdomain, bc=bcs[i], maxh=maxhs[i])
-
-
 @dataclass(frozen=True)
 class JointSpec:
     """A lift joint to mesh: horizontal cut at ``elevation`` graded from both ends."""

@@ -69,11 +69,6 @@ def westergaard_added_mass(fes, free: np.ndarray, level: float, water_density: f
     return ((Ma + Ma.T) * 0.5).tocsr()
 
 
-def westergaard_total(level: float, water_density: float) -> float:
-    """Total added mass of a vertical face [kg/m]: int_0^H 7/8 rho sqrt(H (H - y)) dy = 7/12 rho H^2."""
-    return 7.0 / 12.0 * water_density * level ** 2
-
-
 def build_reservoir(res, mesh, fes, free, water_density, components=None, regions=None,
                     **acoustic_kw):
     """The ReservoirModel of a scene's [reservoir] table (None for model = "none").  regions:

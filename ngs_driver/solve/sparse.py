@@ -367,15 +367,6 @@ class SparseFactor:
         self._part = dict(dofs=dofs, rin=rin, fcols=fcols, Ur=Ur, qout=qout, brows=brows)
         return self
 
-    def partial_fraction(self) -> tuple[float, float]:
-        """Share of L's and of U's entries that the partial forward / backward solves visit."""
-        pt = self._part
-        Lp = self._L[0]
-        Urp = pt["Ur"][0]
-        f = float(np.sum(Lp[pt["fcols"] + 1] - Lp[pt["fcols"]])) / self._L[2].size
-        b = float(np.sum(Urp[pt["brows"] + 1] - Urp[pt["brows"]])) / pt["Ur"][2].size
-        return f, b
-
     def forward(self, b):
         """z = L^-1 Pr b (the first half of ``solve``; permuted space)."""
         b = np.asarray(b, dtype=np.float64)
