@@ -965,3 +965,32 @@ class NewmarkSolver:
         el = 0.5 * self.u @ (self.K @ self.u)
         el += 0.5 * np.sum(self.w[:, None] * self.t * self.g)
         return kin + el
+
+    # ------------------------------------------------------------------ public hooks
+    # What other modules may use of the solver besides its committed fields (u, v, a, f, time,
+    # state, t, g), step/static and ``ext``: the step's coefficients, the interface force, and
+    # the committed internals that a bitwise restart (checkpoint) or a repeated step (the uplift
+    # of the crack state a step ends in) must carry.
+    def coefficients(self, h):
+        """Newmark coefficients (c0, c1, c2, c3, c4, c5) of a step of size h:
+        c0 = 1/(beta h^2), c1 = gamma/(beta h), c2 = 1/(beta h), c3 = 1/(2 beta) - 1,
+        c4 = gamma/beta - 1, c5 = h (gamma/(2 beta) - 1)."""
+        return self._coeffs(h)
+
+    def internal_force(self, t):
+        """B^T W t: the free-DOF force of the interface tractions t (npts, 2)."""
+        return self._fint(t)
+
+    def checkpoint_state(self) -> dict:
+        """Copies of the committed internals a bitwise restart needs besides u, v, a, f, time
+        and the interface state: traction t, gap g, the nonlinear correction phi and the
+        active-point mask."""
+        return {"t": self.t.copy(), "g": self.g.copy(), "phi": self._phi.copy(),
+                "active": self._active.copy()}
+
+    def restore_state(self, d):
+        """Set the committed internals from ``checkpoint_state()`` (copies are taken)."""
+        self.t = np.array(d["t"])
+        self.g = np.array(d["g"])
+        self._phi = np.array(d["phi"])
+        self._active = np.array(d["active"])
