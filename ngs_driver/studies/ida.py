@@ -39,7 +39,7 @@ import time
 
 import numpy as np
 
-from . import fema
+from ..setup import fema_records as fema
 from .fragility import DEFAULT_LIMIT_STATES, exceedances, fit_lognormal, probability
 from .im import IM_LABEL, IMS
 
@@ -129,7 +129,7 @@ def _check_inputs(suite, records, components, im, levels, workers, scheduler):
                               "starts a local cluster, --scheduler ADDR uses a running one")
     if workers is not None and not (isinstance(workers, int) and workers >= 1):
         raise StudyInputError(f"--workers {workers!r}: not allowed; give an integer >= 1")
-    fema._require()          # MissingRecordsPackage (an ImportError) with the install command
+    fema.require_package()          # MissingRecordsPackage (an ImportError) with the install command
     sets = fema.SUITES[suite]
     available = [(s, n) for s in sets for n in fema.records_of(s)]
     if records is None:
@@ -333,8 +333,8 @@ def execute(spec: dict, root: str) -> dict:
 def _worker_info():
     import importlib.util
     import ngs_driver
-    from ngs_driver.studies import fema as f
-    f._require()
+    from ngs_driver.setup import fema_records as f
+    f.require_package()
     return {"pid": os.getpid(), "host": socket.gethostname(),
             "ngs_driver": str(pathlib.Path(ngs_driver.__file__).parent),
             "ngsolve": importlib.util.find_spec("ngsolve") is not None,

@@ -76,7 +76,7 @@ def test_bench_ida_default_scene_run(benchmark, request, tmp_path):
     """One task of a far-field IDA on the default scene, in process (no Dask): koyna, 10 s."""
     _enabled(request)
     from ngs_driver.scene import load_scene
-    from ngs_driver.studies import fema
+    from ngs_driver.setup import fema_records as fema
     from ngs_driver.studies.ida import _run_scene, execute
     from ngs_driver.studies.im import scale_factor
     base = load_scene("koyna")
