@@ -8,7 +8,7 @@ import pytest
 pytest.importorskip("ngsolve")
 
 from interfacelaw import CohesiveParams, ContactParams, InterfaceLaw  # noqa: E402
-from ngs_driver.fe.acoustic_newmark import FluidStepper  # noqa: E402
+from ngs_driver.solve.fluid import FluidStepper  # noqa: E402
 from ngs_driver.fe.model import build_from_scene  # noqa: E402
 from ngs_driver.scene import load_scene  # noqa: E402
 from ngs_driver.solve.newmark import NewmarkSolver  # noqa: E402

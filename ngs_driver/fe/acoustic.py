@@ -387,6 +387,10 @@ class AcousticReservoir:
         I, J = np.meshgrid(rows, rows, indexing="ij")
         return sp.csr_matrix((Maf.ravel(), (I.ravel(), J.ravel())), shape=(n, n))
 
+    def solve_H(self, b):
+        """H^-1 b with the water's Laplacian-like matrix H (factorised once, at ``build``)."""
+        return self._Hfac.solve(b)
+
     # --- incompressible: condensed -------------------------------------------------------
     def seismic_vectors(self, M_rx, M_ry):
         """M r (with M_a) -> M_s r + rho Q H^-1 g (the ground-driven pressure of the face, the

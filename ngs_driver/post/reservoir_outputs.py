@@ -43,10 +43,10 @@ class ReservoirRun:
             self.g = ((self.ac.W.b_x, self.ac.W.b_y) if self.total
                       else (self.ac.g_x, self.ac.g_y))
         if self.ac is not None and not self.ac.incompressible:
-            from ..fe.acoustic_newmark import FluidStepper
+            from ..solve.fluid import FluidStepper
             self.stepper = FluidStepper(self.ac, solver, self.ground, self.g)
         elif self.ac is not None and self.total:
-            from ..fe.acoustic_newmark import GroundPressureLoad
+            from ..solve.fluid import GroundPressureLoad
             GroundPressureLoad(self.ac, solver, self.ground)
         if resume:
             self._resume()

@@ -1,8 +1,8 @@
 """Compressible water in the condensed Newmark solver: the pressure is eliminated exactly inside
 every step (docs/decisions.md "Reservoir").
 
-For a step of size h (coefficients c0..c5 of ``NewmarkSolver._coeffs``) the fluid rows of the
-coupled u-p system (fe/acoustic.py) read
+For a step of size h (coefficients c0..c5 of ``NewmarkSolver.coefficients``) the fluid rows of
+the coupled u-p system (fe/acoustic.py) read
 
     A_pp p_{n+1} = b_p - c0 rho Q^T u_{n+1},     A_pp = c0 G + c1 C_f + H,
     b_p = G (c0 p + c2 p' + c3 p'')_n + C_f (c1 p + c4 p' + c5 p'')_n
@@ -57,7 +57,7 @@ class FluidStepper:
         key = float(h)
         e = self._cache.get(key)
         if e is None:
-            c0, c1 = self.solver._coeffs(h)[:2]
+            c0, c1 = self.solver.coefficients(h)[:2]
             W = self.ac.W
             App = (c0 * W.G + c1 * W.Cf + W.H).tocsc()
             fac = spl.splu(App, permc_spec="MMD_AT_PLUS_A")
@@ -87,7 +87,7 @@ class FluidStepper:
         s, ac, W = self.solver, self.ac, self.ac.W
         if self.pdd is None:
             self._start()
-        c0, c1, c2, c3, c4, c5 = s._coeffs(h)
+        c0, c1, c2, c3, c4, c5 = s.coefficients(h)
         agx, agy = self.ground(s.time + h)
         ubar = c0 * s.u + c2 * s.v + c3 * s.a
         bp = (W.G @ (c0 * self.p + c2 * self.pd + c3 * self.pdd)
@@ -100,7 +100,7 @@ class FluidStepper:
 
     def commit(self, h):
         s = self.solver
-        c0, c1, c2, c3, c4, c5 = s._coeffs(h)
+        c0, c1, c2, c3, c4, c5 = s.coefficients(h)
         hk, y = self._bp
         assert hk == float(h)
         X = self._entry(h)[1]
@@ -124,8 +124,8 @@ class GroundPressureLoad:
         self.ground = ground
         self.solver = solver
         W = acoustic.W
-        self.vx = -acoustic.rho * (acoustic.Q @ acoustic._Hfac.solve(W.b_x))
-        self.vy = -acoustic.rho * (acoustic.Q @ acoustic._Hfac.solve(W.b_y))
+        self.vx = -acoustic.rho * (acoustic.Q @ acoustic.solve_H(W.b_x))
+        self.vy = -acoustic.rho * (acoustic.Q @ acoustic.solve_H(W.b_y))
         self._zero = sp.csr_matrix((solver.ndof, solver.ndof))
         solver.ext = self
 
