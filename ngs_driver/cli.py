@@ -205,7 +205,7 @@ def cmd_modal(a) -> int:
         sc = _load(a.scene, a.overrides)
     except ValueError as e:
         return _err(str(e))
-    from .run.modal import run_modal
+    from .run.frequencies import run_modal
     out = pathlib.Path(a.out or sc.output.dir)
     md, res, damp = run_modal(sc, out, a.n)
     print(f"scene {sc.name}: nfree {md.nfree}, interface points {md.interface.npts}")

@@ -76,7 +76,7 @@ def rigid_wall(lines, fast):
 
 def koyna_f1(lines, out):
     from ngs_driver.fe.modal import k0_from_scene, modal_analysis
-    from ngs_driver.run.modal import run_modal
+    from ngs_driver.run.frequencies import run_modal
     from ngs_driver.fe.model import build_from_scene
     from ngs_driver.scene import load_scene
     sc = load_scene("koyna_classic")

@@ -7,10 +7,8 @@ l_Nc = 2 G_I / sigma_max (``paper_k0``).
 
 from __future__ import annotations
 
-import json
 import math
 from dataclasses import dataclass
-from pathlib import Path
 
 import numpy as np
 import scipy.sparse.linalg as sla
@@ -98,19 +96,6 @@ def damping_from_modes(res: ModalResult, ratio: float = 0.05, modes=(1, 3),
     a0, a1 = rayleigh_coefficients(fa, fb, ratio)
     return {"a0": a0, "a1": a1, "ratio": ratio, "f_a": fa, "f_b": fb, "source": src,
             "ratio_at_modes": [float(z) for z in rayleigh_ratio(res.frequencies_hz, a0, a1)]}
-
-
-def write_modal_json(path, res: ModalResult, damping: dict | None = None,
-                     extra: dict | None = None) -> Path:
-    d = res.to_dict()
-    if damping is not None:
-        d["rayleigh"] = damping
-    if extra:
-        d.update(extra)
-    p = Path(path)
-    p.parent.mkdir(parents=True, exist_ok=True)
-    p.write_text(json.dumps(d, indent=2))
-    return p
 
 
 def k0_from_scene(scene) -> tuple[float, float]:

@@ -130,9 +130,12 @@ def frequency_response(model, k0_normal, k0_tangential, freqs_hz, eta: float = 0
     return ux, 1.0 - w ** 2 * ux
 
 
-def modal_extra(model, scene, k0_normal, k0_tangential, out) -> dict:
-    """What ``modal`` reports about the reservoir; for compressible acoustic water also the
-    crest frequency response (``frequency_response.csv`` / ``.png`` in out)."""
+def modal_response(model, scene, k0_normal, k0_tangential) -> tuple[dict, dict | None]:
+    """What ``modal`` reports about the reservoir, and for compressible acoustic water the crest
+    frequency response (else None): {"f": frequencies [Hz], "f_dry": the first frequency
+    without water, "eta": hysteretic damping, "curves": {"none" | "incompressible" |
+    "compressible": crest acceleration / a_g}, "peak_hz", "f1_reservoir_hz": c / 4H}. The
+    files are written by ``post.modal.write_frequency_response``."""
     res = model.reservoir
     d = dict(res.info)
     d["kind"] = res.kind
@@ -140,9 +143,7 @@ def modal_extra(model, scene, k0_normal, k0_tangential, out) -> dict:
         d["note"] = ("frequencies_hz include the hydrodynamic added mass ("
                      + ("Westergaard" if res.kind == "westergaard" else
                         "incompressible acoustic water, condensed exactly") + ")")
-        return d
-    from pathlib import Path
-
+        return d, None
     from .modal import modal_analysis
     d["note"] = ("compressible water: frequencies_hz are those of the dam without water; the "
                  "coupled system is frequency dependent, see frequency_response")
@@ -151,35 +152,6 @@ def modal_extra(model, scene, k0_normal, k0_tangential, out) -> dict:
     eta = 2 * scene.damping.ratio
     curves = {k: frequency_response(model, k0_normal, k0_tangential, f, eta, k)[1]
               for k in ("none", "incompressible", "compressible")}
-    out = Path(out)
-    out.mkdir(parents=True, exist_ok=True)
-    with open(out / "frequency_response.csv", "w") as fh:
-        fh.write("f_hz,f_over_f1_dry,crest_acc_empty,crest_acc_incompressible,"
-                 "crest_acc_compressible\n")
-        for i, fi in enumerate(f):
-            fh.write(f"{fi:.6g},{fi / f_dry:.6g}," + ",".join(
-                f"{abs(curves[k][i]):.6g}" for k in ("none", "incompressible",
-                                                      "compressible")) + "\n")
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-    fig, ax = plt.subplots(figsize=(7, 4))
-    for k, lab in (("none", "empty"), ("incompressible", "incompressible water"),
-                   ("compressible", f"compressible, alpha = {scene.reservoir.bottom_reflection:g}")):
-        ax.plot(f, np.abs(curves[k]), label=lab)
-    ax.axvline(res.acoustic.c / (4 * res.level), color="0.6", ls=":", lw=1,
-               label="reservoir f1 = c / 4H")
-    ax.set_xlabel("frequency [Hz]")
-    ax.set_ylabel("|crest total acceleration| / a_g")
-    ax.set_title(f"{scene.name}: crest response to harmonic horizontal ground acceleration "
-                 f"(hysteretic eta = {eta:g})", fontsize=9)
-    ax.legend(fontsize=8)
-    fig.tight_layout()
-    fig.savefig(out / "frequency_response.png", dpi=120)
-    plt.close(fig)
     peaks = {k: float(f[int(np.argmax(np.abs(v)))]) for k, v in curves.items()}
-    d["frequency_response"] = {"files": ["frequency_response.csv", "frequency_response.png"],
-                               "peak_hz": peaks, "hysteretic_eta": eta,
-                               "f1_dry_hz": float(f_dry),
-                               "peak_ratio_compressible_over_dry": peaks["compressible"] / f_dry}
-    return d
+    return d, {"f": f, "f_dry": float(f_dry), "eta": eta, "curves": curves, "peak_hz": peaks,
+               "f1_reservoir_hz": res.acoustic.c / (4 * res.level)}

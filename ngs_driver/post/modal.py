@@ -1,0 +1,59 @@
+"""The files of the ``modal`` command: ``modal.json`` (frequencies, modal masses, Rayleigh
+damping) and, for compressible water, the crest frequency response (CSV and figure)."""
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+
+__all__ = ["write_modal_json", "write_frequency_response"]
+
+
+def write_modal_json(path, res, damping: dict | None = None, extra: dict | None = None) -> Path:
+    """``res``: ``fe.modal.ModalResult``; ``damping``: the Rayleigh dict; ``extra``: more keys."""
+    d = res.to_dict()
+    if damping is not None:
+        d["rayleigh"] = damping
+    if extra:
+        d.update(extra)
+    p = Path(path)
+    p.parent.mkdir(parents=True, exist_ok=True)
+    p.write_text(json.dumps(d, indent=2))
+    return p
+
+
+def write_frequency_response(out, scene, resp: dict) -> dict:
+    """``frequency_response.csv`` / ``.png`` of ``fe.reservoir.modal_response``; returns the
+    summary modal.json holds under ``reservoir.frequency_response``."""
+    f, curves, f_dry, eta = resp["f"], resp["curves"], resp["f_dry"], resp["eta"]
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    with open(out / "frequency_response.csv", "w") as fh:
+        fh.write("f_hz,f_over_f1_dry,crest_acc_empty,crest_acc_incompressible,"
+                 "crest_acc_compressible\n")
+        for i, fi in enumerate(f):
+            fh.write(f"{fi:.6g},{fi / f_dry:.6g}," + ",".join(
+                f"{abs(curves[k][i]):.6g}" for k in ("none", "incompressible",
+                                                      "compressible")) + "\n")
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    fig, ax = plt.subplots(figsize=(7, 4))
+    for k, lab in (("none", "empty"), ("incompressible", "incompressible water"),
+                   ("compressible", f"compressible, alpha = {scene.reservoir.bottom_reflection:g}")):
+        ax.plot(f, np.abs(curves[k]), label=lab)
+    ax.axvline(resp["f1_reservoir_hz"], color="0.6", ls=":", lw=1,
+               label="reservoir f1 = c / 4H")
+    ax.set_xlabel("frequency [Hz]")
+    ax.set_ylabel("|crest total acceleration| / a_g")
+    ax.set_title(f"{scene.name}: crest response to harmonic horizontal ground acceleration "
+                 f"(hysteretic eta = {eta:g})", fontsize=9)
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(out / "frequency_response.png", dpi=120)
+    plt.close(fig)
+    peaks = resp["peak_hz"]
+    return {"files": ["frequency_response.csv", "frequency_response.png"],
+            "peak_hz": peaks, "hysteretic_eta": eta, "f1_dry_hz": f_dry,
+            "peak_ratio_compressible_over_dry": peaks["compressible"] / f_dry}
