@@ -193,7 +193,8 @@ def _run(scene, outdir, resume, progress, max_steps, model, plots, log, freeze) 
         rep, f_static = safety.solve_static(solver, f_base)
         t_static = time.perf_counter() - t
         if scene.geometry.foundation == "massless":      # M singular on the rock (#13)
-            from ..fe.foundation import initial_acceleration, massless_dofs
+            from ..fe.foundation import massless_dofs
+            from ..solve.massless import initial_acceleration
             initial_acceleration(solver, f_static - Mrx * ax[0] - Mry * ay[0],
                                  massless_dofs(model.M), damp["a1"])
         else:
