@@ -190,7 +190,7 @@ def test_joint_scan_gives_the_numpy_measures_bit_for_bit():
     code they replace, bit for bit: two joints (the base with friction), random damage,
     debonded runs from the upstream end, points in compression; and the size-scale update
     from the scan's crack length is the update from the state."""
-    from ngs_driver.run.safety import Safety
+    from ngs_driver.run.safety import SlidingSafety
     sc = load_scene("generic_gravity", ["interface.ratio_lTc_lNc=1.3"])   # l_Nc/l_Tc != 1
     rng = np.random.default_rng(7)
     n1, n2 = 137, 64
@@ -202,8 +202,7 @@ def test_joint_scan_gives_the_numpy_measures_bit_for_bit():
     js = JointSet(sc, iface)
     assert js.laws[0].friction is not None
     assert js.law_params()[0, 1] != 1.0
-    saf = Safety.__new__(Safety)               # only its measures (no model needed)
-    saf.joints = js
+    saf = SlidingSafety(js)                    # only its measures (no model needed)
     p = rng.random(n) * 1e5
     law = js.laws[0]
     checked_friction = False
@@ -242,7 +241,7 @@ def test_joint_scan_gives_the_numpy_measures_bit_for_bit():
 
 def test_seismic_load_is_the_numpy_expression():
     """f_static - M r_x a_x - M r_y a_y of a step in one loop: numpy's bits (same order)."""
-    from ngs_driver.run.dam import _seismic_load
+    from ngs_driver.run.analysis import seismic_load as _seismic_load
     rng = np.random.default_rng(4)
     f, mx, my = (rng.standard_normal(1000) * 10.0 ** rng.integers(-3, 9, 1000)
                  for _ in range(3))

@@ -9,7 +9,7 @@ pytest.importorskip("ngsolve")
 
 from ngs_driver.fe.model import build_from_scene  # noqa: E402
 from ngs_driver.run.dam import run  # noqa: E402
-from ngs_driver.run.safety import Screening  # noqa: E402
+from ngs_driver.run.screening import Screening  # noqa: E402
 from ngs_driver.scene import load_scene  # noqa: E402
 
 SETS = ["geometry.foundation=rigid", "screening.enabled=true"]

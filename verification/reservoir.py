@@ -131,7 +131,7 @@ def cost(lines, fast, n_steps=None):
         ax, ay = load_ground_motion(sc).at(sc.ground_motion.start + times)
         Mrx, Mry = md.M @ md.r_x, md.M @ md.r_y
         if md.reservoir is not None:
-            from ngs_driver.post.reservoir_outputs import ReservoirRun
+            from ngs_driver.run.reservoir import ReservoirRun
             Mrx, Mry = md.reservoir.seismic_vectors(Mrx, Mry)
             ReservoirRun.create(md, sc, s, times, ax, ay)
         fs = md.f_gravity + md.f_water

@@ -1,4 +1,5 @@
-"""Checkpoints of a run: arrays + meta written atomically, the meta last (the commit point)."""
+"""Checkpoints of a run: arrays + meta written atomically, the meta last (the commit point);
+and the copy of a solver's committed state that a checkpoint or a repeated solve needs."""
 from __future__ import annotations
 
 import json
@@ -8,6 +9,48 @@ import threading
 import numpy as np
 
 from ..post.files import atomic_write_bytes, atomic_write_text, json_text, npz_bytes
+
+
+def solver_snapshot(solver) -> dict:
+    """A copy of everything the solver has committed: u, v, a, f, time, the interface state
+    and the internals of ``checkpoint_state`` (a solve can be repeated from it bit for bit)."""
+    return {"u": solver.u.copy(), "v": solver.v.copy(), "a": solver.a.copy(),
+            "f": None if solver.f is None else solver.f.copy(), "time": solver.time,
+            "internals": solver.checkpoint_state(), "state": solver.state.copy()}
+
+
+def restore_solver(solver, snap) -> None:
+    """Put the solver back to ``solver_snapshot``'s state (copies: the snapshot stays valid)."""
+    solver.u, solver.v, solver.a = snap["u"].copy(), snap["v"].copy(), snap["a"].copy()
+    solver.f = None if snap["f"] is None else snap["f"].copy()
+    solver.time = snap["time"]
+    solver.restore_state(snap["internals"])
+    solver.state = snap["state"].copy()
+
+
+def solver_arrays(solver) -> dict:
+    """The solver's committed fields as checkpoint arrays (``restore_solver_arrays``)."""
+    out = {"u": solver.u, "v": solver.v, "a": solver.a, "f": solver.f}
+    out.update({f"solver_{k}": v for k, v in solver.checkpoint_state().items()})
+    out.update({f"state_{k}": v for k, v in solver.state.as_dict().items()})
+    return out
+
+
+def interface_state(arrs):
+    """The interface state saved by ``solver_arrays``."""
+    from interfacelaw import InterfaceState
+    return InterfaceState.from_dict({k[6:]: v for k, v in arrs.items()
+                                     if k.startswith("state_")})
+
+
+def restore_solver_arrays(solver, arrs, time: float) -> None:
+    """The rest of ``solver_arrays`` once ``solver.state`` (``interface_state``) and the law
+    are set: u, v, a, f (``set_initial`` evaluates the law on them), then the committed
+    internals exactly as they were, and the time."""
+    solver.set_initial(u=arrs["u"], v=arrs["v"], a=arrs["a"], f=arrs["f"])
+    solver.restore_state({k[7:]: v for k, v in arrs.items() if k.startswith("solver_")})
+    solver.time = float(time)
+
 
 class Checkpointer:
     """Writes ``checkpoint.npz`` (arrays) + ``checkpoint.json`` (meta) atomically.
