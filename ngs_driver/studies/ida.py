@@ -13,7 +13,7 @@
 3. Each run is one Dask task (``execute``) that writes ``DIR/runs/<id>/`` (the run's own
    outputs, ``summary.json`` written last) and, last, ``result.json`` (atomic). A run with a
    ``result.json`` is finished and skipped by the next call (resume). A task whose worker dies
-   is re-run by Dask from the start (fresh, no checkpoint: the demand probe needs every step).
+   is re-run by Dask from the start (fresh, no checkpoint: the demands need every step's history).
    A physical failure -- ``SolverError`` after all step cuts -- is a result (``status =
    "failed"`` with its message), never retried; any other exception is retried by Dask
    (``retries``) and, if it persists, reported as ``status = "error"`` without ``result.json``
@@ -25,7 +25,6 @@
 """
 from __future__ import annotations
 
-import contextlib
 import csv
 import hashlib
 import io
@@ -34,7 +33,6 @@ import math
 import os
 import pathlib
 import socket
-import threading
 import time
 
 import numpy as np
@@ -186,9 +184,6 @@ def _run_scene(base, address, scale, window: str = "scene"):
 # ---------------------------------------------------------------------------------------------
 # the task (runs on a worker)
 # ---------------------------------------------------------------------------------------------
-_PROBE_LOCK = threading.Lock()
-
-
 def _base_slice(scene, model):
     """The base joint's points in the interface vector (lift joints follow it); all points
     when the model has a single interface."""
@@ -199,41 +194,15 @@ def _base_slice(scene, model):
         return slice(None)
 
 
-@contextlib.contextmanager
-def _probe(model, base=slice(None)):
-    """Record the mean base slip and the crest displacement after every accepted step.
-
-    ``run/dam.py`` imports ``NewmarkSolver`` from ``solve.newmark`` when it runs; we put a
-    subclass that records after ``static``/``step`` there for the duration of the run. Its
-    per-step history has no slip column (yet), and the demands need the maximum over time."""
-    import ngs_driver.solve.newmark as nm
-    cls = nm.NewmarkSolver
-    w = np.asarray(model.interface.w, float)[base]
-    W = float(w.sum())
-    cx = model.crest_dofs[0]
-    rec = {"static_slip": None, "slip": [], "crest_ux": []}
-
-    class _Probe(cls):
-        def static(self, *a, **k):
-            # the (last) static state before the shaking: later static solves (the
-            # post-earthquake check of SAFETY) must not move the reference
-            r = super().static(*a, **k)
-            if not rec["slip"]:
-                rec["static_slip"] = float(np.dot(w, self.g[base, 1]) / W)
-            return r
-
-        def step(self, *a, **k):
-            r = super().step(*a, **k)
-            rec["slip"].append(float(np.dot(w, self.g[base, 1]) / W))
-            rec["crest_ux"].append(float(self.u[cx]))
-            return r
-
-    with _PROBE_LOCK:
-        nm.NewmarkSolver = _Probe
-        try:
-            yield rec
-        finally:
-            nm.NewmarkSolver = cls
+def _probe(a) -> dict:
+    """The histories the demands need from an analysis ``a`` (``run.prepare``): the mean base
+    slip of the static state and after every step, and the crest displacement (the summary
+    keeps only their extremes)."""
+    if a.history is None:                  # the static solve failed
+        return {"static_slip": None, "slip": [], "crest_ux": []}
+    H = a.history.cols
+    return {"static_slip": a.static_info["joints"]["base"]["slip_mean"],
+            "slip": H["base_slip_mean"].tolist(), "crest_ux": H["crest_ux"].tolist()}
 
 
 def _flat(prefix, d, out, depth=0):
@@ -309,17 +278,22 @@ def execute(spec: dict, root: str) -> dict:
     scene = from_dict(spec["scene"])
     t0 = time.perf_counter()
     from ..fe.model import build_from_scene
-    from ..run.dam import run
+    from ..run import prepare
     model = build_from_scene(scene)
     base = _base_slice(scene, model)
     status, message, summary = "ok", None, None
-    with _probe(model, base) as rec:
-        try:
-            summary = run(scene, d, progress=False, plots=False, model=model,
-                          log=lambda *a, **k: None)
-        except SolverError as e:               # physical: recorded, not retried
-            status, message = "failed", str(e)
-    demands = demand_measures(summary, rec, model, base)
+    a = prepare(scene, d, progress=False, plots=False, model=model, log=lambda *a, **k: None)
+    try:
+        a.static()
+        while a.step():
+            pass
+    except SolverError as e:                   # physical: recorded, not retried
+        status, message = "failed", str(e)
+    finally:
+        a.close()
+    if status == "ok":
+        summary = a.finish()
+    demands = demand_measures(summary, _probe(a), model, base)
     result = {k: v for k, v in spec.items() if k != "scene"}
     result.update({"status": status, "message": message, "demands": demands,
                    "wall_s": time.perf_counter() - t0, "attempts": attempts,
