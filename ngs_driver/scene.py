@@ -177,7 +177,7 @@ class Screening:
 
 
 @dataclass(frozen=True)
-class Joint:
+class LiftJoint:
     """A lift joint: a horizontal cut through the dam at ``elevation`` with its own law (every
     [interface] key may be given here; the others inherit [interface])."""
     name: str = _f("")
@@ -450,7 +450,7 @@ def _build_joints(val, raw_interface, path, raw_uplift=None):
     if not isinstance(val, (list, tuple)):
         raise ValueError(f"{path} = {val!r}: wrong type, expected an array of tables "
                          "([[joints]])")
-    keys_j = {f.name for f in dataclasses.fields(Joint)} - {"interface", "uplift"}
+    keys_j = {f.name for f in dataclasses.fields(LiftJoint)} - {"interface", "uplift"}
     keys_i = {f.name for f in dataclasses.fields(Interface)}
     out = []
     for i, t in enumerate(val):
@@ -476,7 +476,7 @@ def _build_joints(val, raw_interface, path, raw_uplift=None):
                                  "of [uplift] keys")
             up.update(t["uplift"])
         own["uplift"] = up
-        j = _build(Joint, own, p)
+        j = _build(LiftJoint, own, p)
         if not j.name or set(j.name) - JOINT_NAME_CHARS or j.name == "base":
             raise ValueError(f"{p}.name = {j.name!r}: not allowed; allowed: lower-case letters, "
                              "digits and '_', not 'base' (the dam-foundation joint)")

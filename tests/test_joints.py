@@ -30,7 +30,7 @@ def test_joint_patch_test():
     cut by a lift joint: both the base and the joint points carry exactly the applied traction.
     Uniform stress is in the discrete space of linear triangles and the matching joint's gap is
     exact, so only round-off remains (1e-10 relative)."""
-    joint = geom.JointSpec("mid", 8.0, 0.5, 2.0)
+    joint = geom.JointCut("mid", 8.0, 0.5, 2.0)
     md = build_model(foundation="rock", rock_sides="free", reservoir_level=0.0, gravity=0.0,
                      section=BLOCK, joints=[joint], **MESH)
     assert md.regions == ("dam", "dam_mid", "rock")
@@ -69,7 +69,7 @@ def test_joint_weights_and_frame():
     """The joint's Gauss weights add up to the section's width at its elevation (exact for a
     straight cut), and the points run from the upstream face to the downstream face."""
     sec = Section([[0, 0], [60, 0], [10, 60], [0, 60]])
-    j = geom.JointSpec("j", 30.0, 0.5, 2.0)
+    j = geom.JointCut("j", 30.0, 0.5, 2.0)
     md = build_model(foundation="rigid", reservoir_level=0.0, section=sec, joints=[j],
                      **MESH)
     it = md.joints["j"]

@@ -9,7 +9,7 @@ import scipy.sparse as sp
 from interfacelaw import CohesiveParams, ContactParams, InterfaceLaw
 from ngs_driver.run.energy import EnergyBudget
 from ngs_driver.solve.products import FusedPair
-from ngs_driver.run.joints import JointSet, crack_measures
+from ngs_driver.run.joints import Joints, crack_measures
 from ngs_driver.run.history import History
 from ngs_driver.scene import load_scene
 
@@ -95,14 +95,14 @@ def test_damping_work_direct_for_nonsymmetric_matrices():
 
 
 def test_size_scale_update_skipped_when_the_failed_length_is_unchanged():
-    """The update is a function of the failed length b alone: a JointSet that skips it for an
+    """The update is a function of the failed length b alone: a Joints that skips it for an
     unchanged b has the laws and sizes of a full update from scratch at every step."""
     sc = load_scene("koyna")
     n = 40
     x = np.linspace(0.0, 70.0, n)
     w = np.full(n, 70.0 / n)
     iface = SimpleNamespace(parts={"base": slice(0, n)}, x=x, y=np.zeros(n), w=w)
-    js = JointSet(sc, iface)
+    js = Joints(sc, iface)
     law0 = js.laws[0]
     kappa = np.zeros(n)
     seq = [0, 0, 3, 3, 3, 10, 10, 25, 25, 25]          # debonded points from the heel
@@ -199,7 +199,7 @@ def test_joint_scan_gives_the_numpy_measures_bit_for_bit():
     iface = SimpleNamespace(parts={"base": slice(0, n1), "lift45": slice(n1, n)},
                             x=np.r_[np.linspace(0, 70, n1), np.linspace(3, 40, n2)],
                             y=np.r_[np.zeros(n1), np.full(n2, 45.0)], w=w)
-    js = JointSet(sc, iface)
+    js = Joints(sc, iface)
     assert js.laws[0].friction is not None
     assert js.law_params()[0, 1] != 1.0
     saf = SlidingSafety(js)                    # only its measures (no model needed)
@@ -233,7 +233,7 @@ def test_joint_scan_gives_the_numpy_measures_bit_for_bit():
         deb = st.debonded
         checked_friction |= bool(np.any(deb[:n1] & (t[:n1, 0] < 0)))
         # the update from the scan = the update from the state
-        a, b = JointSet(sc, iface), JointSet(sc, iface)
+        a, b = Joints(sc, iface), Joints(sc, iface)
         assert a.update(st, scan) == b.update(st)
         assert a.sizes == b.sizes and a.laws[0].cohesive == b.laws[0].cohesive
     assert checked_friction

@@ -10,7 +10,7 @@ pytest.importorskip("ngsolve")
 from ngs_driver.fe.model import build_from_scene  # noqa: E402
 from ngs_driver.post.files import read_csv  # noqa: E402
 from ngs_driver.run.dam import run  # noqa: E402
-from ngs_driver.run.joints import JointSet, crack_measures  # noqa: E402
+from ngs_driver.run.joints import Joints, crack_measures  # noqa: E402
 from ngs_driver.run.post_earthquake import PostEarthquakeCheck  # noqa: E402
 from ngs_driver.run.safety import SlidingSafety  # noqa: E402
 from ngs_driver.run.statics import solve_pre_earthquake  # noqa: E402
@@ -87,7 +87,7 @@ def _precracked(model, scene, a_target):
     it = model.interface
     nodes = np.unique(np.round(it.segments[:, :, 0].ravel(), 12))
     a = float(nodes[np.argmin(np.abs(nodes - a_target))])
-    joints = JointSet(scene, it)
+    joints = Joints(scene, it)
     s = NewmarkSolver(model.K, model.M, None, it.B, it.w, joints.solver_law(), dt=0.002,
                       tol_residual=1e-11, max_iter=60)
     st = s.state.copy()
@@ -144,7 +144,7 @@ def test_crack_dependent_uplift_is_a_fixed_point_of_each_step(rigid_model, in_cr
     sc = load_scene("koyna_smoke", RIGID + ["uplift.model=linear", f"uplift.in_crack={in_crack}",
                                             "interface.damage=false"])
     it = rigid_model.interface
-    joints = JointSet(sc, it)
+    joints = Joints(sc, it)
     s = NewmarkSolver(rigid_model.K, rigid_model.M, None, it.B, it.w, joints.solver_law(),
                       dt=0.002, tol_residual=1e-10, max_iter=60)
     st = s.state.copy()
@@ -169,7 +169,7 @@ def test_post_earthquake_without_equilibrium_reports_the_resultants(rigid_model)
     FS = f W / T from the load resultants (1e-12: sums of the assembled load vector)."""
     sc = load_scene("koyna_smoke", RIGID + ["uplift.model=linear", "uplift.in_crack=zero"])
     it = rigid_model.interface
-    joints = JointSet(sc, it)
+    joints = Joints(sc, it)
     s = NewmarkSolver(rigid_model.K, rigid_model.M, None, it.B, it.w, joints.solver_law(),
                       dt=0.002, max_iter=10)
     st = s.state.copy()

@@ -40,8 +40,9 @@ def write_frequency_response(out, scene, resp: dict) -> dict:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
     fig, ax = plt.subplots(figsize=(7, 4))
+    alpha = scene.reservoir.bottom_reflection
     for k, lab in (("none", "empty"), ("incompressible", "incompressible water"),
-                   ("compressible", f"compressible, alpha = {scene.reservoir.bottom_reflection:g}")):
+                   ("compressible", f"compressible, alpha = {alpha:g}")):
         ax.plot(f, np.abs(curves[k]), label=lab)
     ax.axvline(resp["f1_reservoir_hz"], color="0.6", ls=":", lw=1,
                label="reservoir f1 = c / 4H")

@@ -45,7 +45,7 @@ from .checkpoint import (Checkpointer, interface_state, restore_solver_arrays, s
 from .damping import damping_matrix, rayleigh_damping
 from .energy import EnergyBudget
 from .history import HIST_KEYS, History, Snapshots, results_from_history
-from .joints import JointSet
+from .joints import Joints
 from .post_earthquake import PostEarthquakeCheck
 from .safety import FS_DEFINITION, SlidingSafety
 from .statics import solve_pre_earthquake
@@ -127,7 +127,7 @@ class Analysis:
 
         # ---- joints, loads besides gravity and water, safety measures ------------------------
         iface = model.interface
-        self.joints = joints = JointSet(scene, iface)
+        self.joints = joints = Joints(scene, iface)
         self.uplift = Uplift(scene, iface, joints)
         self.safety = SlidingSafety(joints)
         self.absorbing = None                # fe.foundation.AbsorbingRock

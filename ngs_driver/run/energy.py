@@ -110,7 +110,7 @@ class EnergyBudget:
 
     def __init__(self, K, M, C, w, joints, rayleigh=None, C_extra=None):
         self.K, self.M, self.C, self.w = K, M, C, w
-        self.joints = joints              # run.joints.JointSet (names, slices, laws)
+        self.joints = joints              # run.joints.Joints (names, slices, laws)
         self.rows = []
         self._split = None
         if C is not None and rayleigh is not None and _symmetric(K) and _symmetric(M):

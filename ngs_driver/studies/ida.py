@@ -188,8 +188,8 @@ def _base_slice(scene, model):
     """The base joint's points in the interface vector (lift joints follow it); all points
     when the model has a single interface."""
     try:
-        from ..run.joints import JointSet
-        return JointSet(scene, model.interface).slices[0]
+        from ..run.joints import Joints
+        return Joints(scene, model.interface).slices[0]
     except (ImportError, AttributeError):
         return slice(None)
 
