@@ -62,7 +62,7 @@ def write_run_outputs(out, model, scene, gm, H, snaps, solver, u_static, joints,
                                      H["crack_length"])], title))
     if heel is None:
         heel = {"u": solver.u, "t": H["t"][-1] if len(H["t"]) else 0.0, "open": None}
-    tri = P._triangles(model)               # the mesh's triangles, for both mesh figures
+    tri = P.mesh_cells(model)               # the mesh's triangles, for both mesh figures
     f = P.plot_heel_von_mises(out / "fig12_heel_von_mises.png", model, heel["u"],
                             title + f"\nt = {heel['t']:.3f} s: largest heel opening "
                             + (f"({1e3 * heel['open']:.3g} mm) " if heel["open"] is not None
