@@ -165,11 +165,10 @@ def variant(s, method="condensed"):
 # part 1: scaling with DOFs and with interface points (the run command's own run(), short runs)
 # ---------------------------------------------------------------------------------------------
 def short_run(model, sc, outdir) -> dict:
-    from ngs_driver.run.dam import run
+    from ngs_driver.post.files import read_csv
+    from ngs_driver.run import run
     s = run(sc, outdir, model=model, plots=False, progress=False)
-    lines = [ln for ln in (pathlib.Path(outdir) / "timeseries.csv").read_text().splitlines()
-             if ln and not ln.startswith("#")]
-    ts = np.genfromtxt(lines, delimiter=",", names=True)
+    ts = read_csv(pathlib.Path(outdir) / "timeseries.csv")
     w = np.asarray(ts["wall"])
     return {"per_step_median": float(np.median(w)), "per_step_mean": float(np.mean(w)),
             "per_step_median_after_first": float(np.median(w[1:])),
@@ -674,9 +673,8 @@ def cli_run(sets, tag) -> dict:
         return d
     d.update(parse_time_v(tf.read_text()))
     sm = json.loads((od / "summary.json").read_text())
-    lines = [ln for ln in (od / "timeseries.csv").read_text().splitlines()
-             if ln and not ln.startswith("#")]
-    ts = np.genfromtxt(lines, delimiter=",", names=True)
+    from ngs_driver.post.files import read_csv
+    ts = read_csv(od / "timeseries.csv")
     d.update({"timings": sm["timings"], "solver_totals": sm["solver_totals"],
               "n_steps": sm["n_steps"], "steps_done": int(len(ts["wall"])),
               "stopped": sm.get("stopped"),

@@ -26,7 +26,6 @@
 from __future__ import annotations
 
 import csv
-import hashlib
 import io
 import json
 import math
@@ -38,6 +37,7 @@ import time
 import numpy as np
 
 from ..setup import fema_records as fema
+from . import sweep
 from .fragility import DEFAULT_LIMIT_STATES, exceedances, fit_lognormal, probability
 from .im import IM_LABEL, IMS
 
@@ -64,17 +64,12 @@ WINDOWS = ("scene", "record")
 
 
 def scene_hash(scene, window: str = "scene") -> str:
+    """``sweep.scene_hash`` of the base scene without the record and scale the study sets per
+    run, and with the analysed window."""
     d = scene.to_dict()
     if window != "scene":
         d["_window"] = window          # the analysed window changes every run
-    for k in ("name", "description", "output"):
-        d.pop(k, None)
-    gm = dict(d.get("ground_motion", {}))
-    gm.pop("record", None)
-    gm.pop("scale", None)
-    d["ground_motion"] = gm
-    txt = json.dumps(d, sort_keys=True, separators=(",", ":"))
-    return hashlib.sha256(txt.encode()).hexdigest()[:10]
+    return sweep.scene_hash(d, drop=("ground_motion.record", "ground_motion.scale"))
 
 
 def run_id(rset: str, n: int, comp: str, im: str, level: float, h: str) -> str:
@@ -260,10 +255,10 @@ def execute(spec: dict, root: str) -> dict:
     from ..scene import from_dict
     from ..solve.newmark import SolverError
 
-    d = pathlib.Path(root) / "runs" / spec["id"]
-    res_path = d / "result.json"
-    if res_path.exists():                       # finished by an earlier attempt
-        return json.loads(res_path.read_text())
+    d = sweep.run_dir(root, spec)
+    earlier = sweep.finished(d)
+    if earlier is not None:                     # finished by an earlier attempt
+        return earlier
     d.mkdir(parents=True, exist_ok=True)
     started = d / "started.json"
     attempts = 1
@@ -300,8 +295,7 @@ def execute(spec: dict, root: str) -> dict:
                    "worker": worker, "finished": time.time()})
     if summary is not None:
         result["ground_motion"] = summary["ground_motion"]
-    atomic_write_json(res_path, result)
-    return result
+    return sweep.write_result(d, result)
 
 
 def _worker_info():
@@ -400,16 +394,7 @@ def run_ida(scene, *, suite: str, im: str, levels, out, records=None, components
                 plan.append({"id": run_id(rset, n, c, im, lv, h), "set": rset, "record": n,
                              "component": c, "address": fema.address(rset, n, c), "im": im,
                              "level_g": lv, "scene_hash": h})
-    done, pending = {}, []
-    for p in plan:
-        rp = out / "runs" / p["id"] / "result.json"
-        if rp.exists():
-            try:
-                done[p["id"]] = json.loads(rp.read_text())
-                continue
-            except (OSError, ValueError):
-                pass
-        pending.append(p)
+    done, pending = sweep.Sweep(out, execute).plan(plan)
     say(f"IDA {base.name} [{h}] suite {suite}: {len(plan)} runs "
         f"({len(chosen)} records x {len(comps)} components x {len(levels)} levels), "
         f"{len(done)} finished earlier (skipped), {len(pending)} to run")
@@ -522,40 +507,34 @@ def _first_period_cached(base, out, h):
 
 
 def _submit(client, pending, out, done, say, progress):
-    from dask.distributed import as_completed
+    """The pending runs on the Dask client (``sweep.Sweep``: result.json written last, a task
+    that raises retried RETRIES times by Dask); one log line per finished run."""
     from tqdm import tqdm
 
-    from ..post.files import atomic_write_json
-    futs = {}
-    for p in pending:
-        f = client.submit(execute, p, str(out.resolve()), key=f"ida-{p['id']}",
-                          retries=RETRIES, pure=False)
-        futs[f] = p
-    errors = []
-    bar = tqdm(total=len(futs), disable=None if progress else True, unit="run", desc="IDA",
+    n = len(pending)
+    bar = tqdm(total=n, disable=None if progress else True, unit="run", desc="IDA",
                dynamic_ncols=True)
-    k = 0
+    count = [0]
+
+    def ok(spec, r):
+        count[0] += 1
+        bar.update(1)
+        say(f"[{count[0]}/{n}] " + _line(r))
+
+    def bad(spec, msg):
+        count[0] += 1
+        bar.update(1)
+        say(f"[{count[0]}/{n}] {spec['id']}: ERROR {msg} (not recorded; the next call "
+            "retries it)")
+
+    sw = sweep.Sweep(out, execute, client=client, retries=RETRIES, on_result=ok,
+                     on_error=bad, key_prefix="ida")
     try:
-        for f in as_completed(list(futs)):
-            p = futs[f]
-            k += 1
-            try:
-                r = f.result()
-            except Exception as e:  # noqa: BLE001 -- a bug or a worker lost too often
-                errors.append({"id": p["id"], "message": f"{type(e).__name__}: {e}"})
-                bar.update(1)
-                say(f"[{k}/{len(futs)}] {p['id']}: ERROR {type(e).__name__}: {e} "
-                    "(not recorded; the next call retries it)")
-                continue
-            rp = out / "runs" / p["id"] / "result.json"
-            if not rp.exists():       # a worker without the shared file system
-                atomic_write_json(rp, r)
-            done[p["id"]] = r
-            bar.update(1)
-            say(f"[{k}/{len(futs)}] " + _line(r))
+        res = sw.run(pending)
     finally:
         bar.close()
-    return len(futs), errors
+    done.update(res["results"])
+    return n, [{"id": i, "message": m} for i, m in res["errors"].items()]
 
 
 def _fmt(v, scale=1.0, spec=".3g"):
