@@ -7,7 +7,6 @@ arithmetic: 1e-12 relative.
 """
 from __future__ import annotations
 
-import importlib.util
 import math
 import os
 from pathlib import Path
@@ -312,11 +311,8 @@ def test_tangent_fd_error_small_on_smooth_branches():
 
 
 def test_verification_fast_writes_all_sections(tmp_path):
-    spec = importlib.util.spec_from_file_location("material_point",
-                                                  ROOT / "verification" / "material_point.py")
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    res = mod.main(fast=True, outdir=tmp_path)
+    from conftest import run_fast_study
+    res = run_fast_study("material_point", tmp_path)
     text = (tmp_path / "REPORT.md").read_text()
     for sec in ("## 1.", "## 2.", "## 3.", "## 4.", "## 5.", "## 6."):
         assert sec in text

@@ -24,6 +24,7 @@ pytest.importorskip("ngsolve")
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
+from conftest import run_fast_study  # noqa: E402
 from verification import koyna_studies as ks  # noqa: E402  (the package, as conftest's study)
 
 
@@ -31,7 +32,7 @@ from verification import koyna_studies as ks  # noqa: E402  (the package, as con
 def fast_study(tmp_path_factory):
     out = tmp_path_factory.mktemp("koyna_studies")
     t0 = time.perf_counter()
-    msg = ks.main(fast=True, outdir=out)
+    msg = run_fast_study("koyna_studies", out)
     return out, msg, ks.LAST_STATE, time.perf_counter() - t0
 
 
