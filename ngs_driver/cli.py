@@ -79,6 +79,17 @@ def _load(scene, overrides):
     return load_scene(scene, overrides)
 
 
+def _outdir(out, sc=None) -> pathlib.Path:
+    """The results folder: --out, else the scene's output.dir; ValueError naming the key when
+    it exists as a file (checked before anything is built or written)."""
+    key, p = ("--out", out) if out else ("output.dir", sc.output.dir)
+    p = pathlib.Path(p)
+    if p.exists() and not p.is_dir():
+        raise ValueError(f"{key} = {str(p)!r}: is an existing file; allowed: a folder (new or "
+                         "existing)")
+    return p
+
+
 def _dry_run(sc, outdir) -> int:
     if sc.kind == "material_point":
         from .apps.point import describe_point as describe
@@ -98,9 +109,11 @@ def _dry_run(sc, outdir) -> int:
 def cmd_run(a) -> int:
     try:
         sc = _load(a.scene, a.overrides)
+        outdir = _outdir(a.out, sc)
+        if a.resume and sc.kind == "koyna":
+            _resume_check(sc, outdir)
     except ValueError as e:
         return _err(str(e))
-    outdir = pathlib.Path(a.out or sc.output.dir)
     if a.dry_run:
         return _dry_run(sc, outdir)
     if sc.kind != "koyna":
@@ -108,10 +121,21 @@ def cmd_run(a) -> int:
             return _err(f"--resume: scenes of kind {sc.kind!r} are short and not checkpointed; "
                         "allowed: --resume with kind 'koyna'")
         return _run_other(sc, outdir, not a.quiet)
-    if a.resume and not (outdir / "checkpoint.json").exists():
-        return _err(f"--resume: no checkpoint in {outdir}; allowed: the results directory of an "
-                    "interrupted run with output.checkpoint_every > 0")
     return _run_one(sc, outdir, a.resume, not a.quiet)
+
+
+def _resume_check(sc, outdir):
+    """--resume (also with --dry-run): a checkpoint in outdir written for this scene; the
+    ValueError names the first key that differs."""
+    if not (outdir / "checkpoint.json").exists():
+        raise ValueError(f"--resume: no checkpoint in {outdir}; allowed: the results directory "
+                         "of an interrupted run with output.checkpoint_every > 0")
+    from .run.checkpoint import checkpoint_scene_difference
+    diff = checkpoint_scene_difference(sc, outdir)
+    if diff is not None:
+        raise ValueError(f"--resume: the checkpoint in {outdir} was written for a different "
+                         f"scene: {diff}; allowed: the same scene and overrides as the "
+                         "interrupted run")
 
 
 def _run_other(sc, outdir, progress) -> int:
@@ -149,9 +173,9 @@ def paper_dirs(base: pathlib.Path) -> dict:
 
 
 def cmd_run_paper(a) -> int:
-    base = pathlib.Path(a.out or "results")
     scenes = {}
     try:
+        base = _outdir(a.out or "results")
         for (lab, d), alpha in zip(paper_dirs(base).items(), (2.0, 1.0)):
             scenes[lab] = (_load(a.scene, list(a.overrides) + [f"interface.alpha={alpha}"]), d)
     except ValueError as e:
@@ -189,6 +213,10 @@ def _compare(runs: dict, out) -> int:
 
 
 def cmd_compare(a) -> int:
+    try:
+        _outdir(a.out)
+    except ValueError as e:
+        return _err(str(e))
     runs = {}
     for d in a.dirs:
         p = pathlib.Path(d)
@@ -203,10 +231,10 @@ def cmd_compare(a) -> int:
 def cmd_modal(a) -> int:
     try:
         sc = _load(a.scene, a.overrides)
+        out = _outdir(a.out, sc)
     except ValueError as e:
         return _err(str(e))
     from .run.frequencies import run_modal
-    out = pathlib.Path(a.out or sc.output.dir)
     md, res, damp = run_modal(sc, out, a.n)
     print(f"scene {sc.name}: nfree {md.nfree}, interface points {md.interface.npts}")
     print("frequencies [Hz]:", " ".join(f"{f:.4f}" for f in res.frequencies_hz))

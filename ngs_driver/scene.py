@@ -90,7 +90,10 @@ class Loads:
 
 @dataclass(frozen=True)
 class GroundMotion:
-    record: str = _f("synthetic")
+    record: str = _f("synthetic", doc="'synthetic' (the shipped record), 'fema-p695:<set>:<n>:"
+                     "<a|b>', or a record file (.AT2, two or three columns); a relative path "
+                     "in a scene file is taken from the scene file's folder, on the command "
+                     "line from the current folder")
     scale: float = _f(1.0, lo=0.0, hi=100.0)
     components: tuple = _f(("x", "y"), choices=("x", "y"))
     start: float = _f(0.0, lo=0.0, hi=1e4, doc="record time at which the analysis starts")
@@ -498,10 +501,6 @@ def _scene_checks(sc):
         key = "geometry.profile_file" if g.profile_file else "geometry.profile"
         raise ValueError(f"{key}{' = ' + repr(g.profile_file) if g.profile_file else ''}: "
                          f"{e}") from None
-    H = sc.loads.reservoir_level
-    if H > sec.height + 1e-9:
-        raise ValueError(f"loads.reservoir_level = {H!r}: above the crest; allowed: "
-                         f"[0, {sec.height:g}] m (the section's height)")
     for i, j in enumerate(sc.joints):
         if not (0.0 < j.elevation < sec.height):
             raise ValueError(f"joints[{i}].elevation = {j.elevation!r} (joint {j.name!r}): "
@@ -529,9 +528,27 @@ def _cross_checks(obj, path):
         if not obj.components or len(set(obj.components)) != len(obj.components):
             raise ValueError(f"{path}.components = {list(obj.components)!r}: need a non-empty "
                              f"subset of ['x', 'y'] without repetitions")
+    if isinstance(obj, Time):
+        _whole_steps(obj, path)
     if isinstance(obj, Mesh) and obj.h_heel > obj.h_interface:
         raise ValueError(f"{path}.h_heel = {obj.h_heel!r}: must be <= mesh.h_interface "
                          f"({obj.h_interface})")
+
+
+def _whole_steps(t, path):
+    """A run takes duration / dt steps: at least one, and a whole number of them (a rounded
+    number would end the run elsewhere than the scene says; relative tolerance 1e-9 for the
+    decimal fractions of dt)."""
+    n = t.duration / t.dt
+    k = round(n)
+    if k < 1:
+        raise ValueError(f"{path}.dt = {t.dt!r} with {path}.duration = {t.duration!r}: no time "
+                         f"step fits in the duration; allowed: {path}.dt <= {path}.duration")
+    if abs(n - k) > 1e-9 * n:
+        lo, hi = math.floor(n) * t.dt, math.ceil(n) * t.dt
+        raise ValueError(f"{path}.duration = {t.duration!r} with {path}.dt = {t.dt!r}: "
+                         f"{n:.6g} steps, not a whole number; allowed: a whole number of steps, "
+                         f"e.g. {path}.duration = {lo:.10g} or {hi:.10g}")
 
 
 def parse_override(item: str) -> tuple[list[str], Any]:
@@ -616,14 +633,21 @@ def from_dict(raw: dict, overrides=None):
     root = _root(raw)
     if root is not Scene:
         return _default_output(_build(root, apply_overrides(raw, overrides), ""))
-    raw, overrides = _reservoir_alias(raw, overrides)
+    raw, overrides, level_key = _reservoir_alias(raw, overrides)
     raw = apply_overrides(raw, overrides)
-    if isinstance(raw.get("reservoir"), dict) and "level" in raw["reservoir"]:
-        if not isinstance(raw.get("loads", {}), dict):
-            raise ValueError(f"loads = {raw['loads']!r}: wrong type, expected a table")
-        raw.setdefault("loads", {})["reservoir_level"] = raw["reservoir"]["level"]
-    sc = _build(root, raw, "")
-    _reservoir_checks(sc)
+    if not isinstance(raw.get("loads", {}), dict):
+        raise ValueError(f"loads = {raw['loads']!r}: wrong type, expected a table")
+    try:
+        sc = _build(root, raw, "")
+        # the one water level: loads.reservoir_level holds reservoir.level's value
+        sc = dataclasses.replace(sc, loads=dataclasses.replace(
+            sc.loads, reservoir_level=sc.reservoir.level))
+        _reservoir_checks(sc)
+    except ValueError as e:               # name the key the user wrote
+        msg = str(e)
+        if level_key != "reservoir.level" and msg.startswith("reservoir.level"):
+            msg = level_key + msg[len("reservoir.level"):]
+        raise ValueError(msg) from None
     return _default_output(sc)
 
 
@@ -640,10 +664,14 @@ def _reservoir_alias(raw: dict, overrides):
     """``loads.reservoir_level`` is the documented alias of ``reservoir.level``: a file value
     moves to [reservoir] (both given and different: an error), an override
     ``--set loads.reservoir_level=v`` becomes ``--set reservoir.level=v``; afterwards the two
-    keys hold the same value."""
+    keys hold the same value. Returns (raw, overrides, the key the level was last given by:
+    errors about the level name it)."""
     raw = _deepcopy(raw)
     loads, res = raw.get("loads"), raw.get("reservoir")
+    level_key = "reservoir.level"
     if isinstance(loads, dict) and "reservoir_level" in loads:
+        if not (isinstance(res, dict) and "level" in res):
+            level_key = "loads.reservoir_level"
         old = loads.pop("reservoir_level")
         if not isinstance(res, dict):
             res = raw["reservoir"] = {} if res is None else res
@@ -656,9 +684,11 @@ def _reservoir_alias(raw: dict, overrides):
     ov = []
     for item in overrides or ():
         key, eq, val = item.partition("=")
+        if eq and key.strip() in ("loads.reservoir_level", "reservoir.level"):
+            level_key = key.strip()
         ov.append("reservoir.level=" + val if eq and key.strip() == "loads.reservoir_level"
                   else item)
-    return raw, ov
+    return raw, ov, level_key
 
 
 def _reservoir_checks(sc):
@@ -669,7 +699,7 @@ def _reservoir_checks(sc):
     crest = max(float(p[1]) for p in prof)
     if r.level > crest + 1e-9:
         raise ValueError(f"reservoir.level = {r.level!r}: above the crest; allowed: "
-                         f"[0, {crest:g}] m (the section's height; alias loads.reservoir_level)")
+                         f"[0, {crest:g}] m (the section's height)")
     if r.model == "none":
         return
     if r.level <= 0.0:
@@ -707,11 +737,22 @@ def load_scene(name_or_path: str | Path = "koyna", overrides=None):
         except tomllib.TOMLDecodeError as e:
             raise ValueError(f"scene file {p}: TOML syntax error: {e}") from None
     raw.setdefault("name", p.stem)
+    # files named in a scene file are found beside it (on the command line: from the cwd)
     pf = raw.get("geometry", {}).get("profile_file") if isinstance(raw.get("geometry"),
                                                                    dict) else None
-    if isinstance(pf, str) and pf and not Path(pf).is_absolute() and (p.parent / pf).exists():
+    if isinstance(pf, str) and pf and not Path(pf).is_absolute():
         raw["geometry"]["profile_file"] = str((p.parent / pf).resolve())
+    gm = raw.get("ground_motion")
+    rec = gm.get("record") if isinstance(gm, dict) else None
+    if isinstance(rec, str) and _is_record_path(rec) and not Path(rec).is_absolute():
+        gm["record"] = str((p.parent / rec).resolve())
     return from_dict(raw, overrides)
+
+
+def _is_record_path(rec: str) -> bool:
+    """A ground_motion.record that names a file (not the shipped record, not an address such
+    as 'fema-p695:farfield:7:a')."""
+    return bool(rec) and rec not in ("synthetic", "default") and ":" not in rec
 
 
 def list_scenes() -> list[str]:

@@ -38,10 +38,11 @@ import numpy as np
 from numba import njit
 
 from ..post.files import atomic_savez, atomic_write_json, environment_info
-from ..setup import FORMULATION, characteristic_times, law_parts, validate
+from ..setup import FORMULATION, characteristic_times, law_parts, validate, window_note
 from ..solve.joint_laws import initial_stiffness
 from . import summary as sm
-from .checkpoint import (Checkpointer, interface_state, restore_solver_arrays, solver_arrays)
+from .checkpoint import (Checkpointer, interface_state, restore_solver_arrays, scene_difference,
+                         solver_arrays)
 from .damping import damping_matrix, rayleigh_damping
 from .energy import EnergyBudget
 from .history import HIST_KEYS, History, Snapshots, results_from_history
@@ -77,30 +78,12 @@ def _restart(scene, out, ckp, scene_d):
     """(meta, arrays) of the checkpoint in ``out``; ValueError naming the first key whose
     value differs when the checkpoint was written for another scene."""
     meta, arrs = ckp.load()          # FileNotFoundError with a clear message
-    have = meta.get("scene")
-    want = json.loads(json.dumps(scene_d))
-    if have != want:
-        diff = _first_difference(have or {}, want)
+    diff = scene_difference(meta.get("scene") or {}, json.loads(json.dumps(scene_d)))
+    if diff is not None:
         raise ValueError(f"--resume: the checkpoint in {out} was written for a different "
                          f"scene: {diff}; allowed: the same scene and overrides as the "
                          "interrupted run")
     return meta, arrs
-
-
-def _first_difference(have, want, path="") -> str:
-    """'key = <checkpoint's value> in the checkpoint, <value> now' for the first key that
-    differs (depth first, in the scene's order)."""
-    if isinstance(have, dict) and isinstance(want, dict):
-        for k in list(want) + [k for k in have if k not in want]:
-            p = f"{path}.{k}" if path else k
-            if k not in have:
-                return f"{p} = {want[k]!r} is not in the checkpoint's scene"
-            if k not in want:
-                return f"{p} = {have[k]!r} in the checkpoint is not in the scene"
-            if have[k] != want[k]:
-                return _first_difference(have[k], want[k], p)
-        return path or "scene"
-    return f"{path} = {have!r} in the checkpoint, {want!r} now"
 
 
 class Analysis:
@@ -190,6 +173,7 @@ class Analysis:
         self.history_keys = (list(HIST_KEYS[:-1]) + joints.history_keys()
                              + self.safety.history_keys() + self.energy.keys() + ["wall"])
         self.stop_rule = SlidingStop(scene, joints)
+        self.window_note = window_note(scene, gm)
         self.snapshots = Snapshots(self.n_steps, scene.output.snapshots)
         self.vtk = None
         if plots and scene.output.vtk_every > 0:
@@ -211,6 +195,8 @@ class Analysis:
                 f"a0 = {self.damping['a0']:.4g} 1/s, a1 = {self.damping['a1']:.4g} s; t1 = "
                 f"{c['t1']:.3e} s, t2 = {c['t2']:.3e} s (Eq. 11); record: {gm.label}"
                 f"{' [SYNTHETIC]' if gm.synthetic else ''}")
+            if self.window_note:
+                log(f"[{scene.name}] note: {self.window_note}")
 
     def _modal_model(self):
         """The model the modal analysis sees: with absorbing (unsupported) rock boundaries,
@@ -500,7 +486,7 @@ class Analysis:
         summary = {
             "scene": self.scene_d,
             "label": gm.label + (" [SYNTHETIC]" if gm.synthetic else ""),
-            "ground_motion": sm.ground_motion_summary(scene, gm),
+            "ground_motion": sm.ground_motion_summary(scene, gm, self.window_note),
             "formulation": FORMULATION,
             "stopped": self.stopped,
             "crest_point": list(model.crest_point),
@@ -549,6 +535,9 @@ def prepare(scene, outdir=None, *, resume: bool = False, progress: bool = True,
     t0 = time.perf_counter()
     gm = validate(scene)                      # nothing is written for a bad scene
     out = pathlib.Path(outdir if outdir is not None else scene.output.dir)
+    if out.exists() and not out.is_dir():
+        raise ValueError(f"{'outdir' if outdir is not None else 'output.dir'} = {str(out)!r}: "
+                         "is an existing file; allowed: a folder (new or existing)")
     checkpoints = Checkpointer(out, scene.output.checkpoint_every)
     restart = _restart(scene, out, checkpoints, scene.to_dict()) if resume else None
     out.mkdir(parents=True, exist_ok=True)

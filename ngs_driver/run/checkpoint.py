@@ -36,6 +36,30 @@ def solver_arrays(solver) -> dict:
     return out
 
 
+def scene_difference(have, want, path="") -> str | None:
+    """'key = <have> in the checkpoint, <want> now' for the first key whose value differs
+    (depth first, in ``want``'s order), or None when the two scene dicts are equal."""
+    if have == want:
+        return None
+    if isinstance(have, dict) and isinstance(want, dict):
+        for k in list(want) + [k for k in have if k not in want]:
+            p = f"{path}.{k}" if path else k
+            if k not in have:
+                return f"{p} = {want[k]!r} is not in the checkpoint's scene"
+            if k not in want:
+                return f"{p} = {have[k]!r} in the checkpoint is not in the scene"
+            if have[k] != want[k]:
+                return scene_difference(have[k], want[k], p)
+    return f"{path or 'scene'} = {have!r} in the checkpoint, {want!r} now"
+
+
+def checkpoint_scene_difference(scene, directory) -> str | None:
+    """The first key in which ``scene`` differs from the scene of the checkpoint in
+    ``directory`` (``scene_difference``), or None."""
+    meta = json.loads((pathlib.Path(directory) / "checkpoint.json").read_text())
+    return scene_difference(meta.get("scene") or {}, json.loads(json.dumps(scene.to_dict())))
+
+
 def interface_state(arrs):
     """The interface state saved by ``solver_arrays``."""
     from interfacelaw import InterfaceState

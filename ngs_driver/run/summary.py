@@ -9,12 +9,13 @@ __all__ = ["ground_motion_summary", "reference_parameters", "joint_results", "en
            "timings", "solver_totals"]
 
 
-def ground_motion_summary(scene, gm) -> dict:
+def ground_motion_summary(scene, gm, note=None) -> dict:
+    """The record as read; note: ``setup.window_note`` (the window runs past its end)."""
     return {"label": gm.label, "synthetic": bool(gm.synthetic), "source": gm.source,
             "dt": gm.dt, "peak_g": list(gm.peak_g()), "start": scene.ground_motion.start,
             # record metadata (event, station, magnitude, PGA, citation) when the reader
             # knows it (FEMA P695 / PEER NGA records)
-            "metadata": dict(getattr(gm, "meta", None) or {})}
+            "metadata": dict(getattr(gm, "meta", None) or {}), "window_note": note}
 
 
 def reference_parameters(scene, joints) -> dict:

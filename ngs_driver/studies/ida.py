@@ -361,6 +361,9 @@ def run_ida(scene, *, suite: str, im: str, levels, out, records=None, components
     """The IDA (see the module doc). Returns {'rows', 'fragility', 'submitted', 'skipped',
     'errors', 'files'}. ``client``: an existing dask Client (tests)."""
     out = pathlib.Path(out)
+    if out.exists() and not out.is_dir():
+        raise StudyInputError(f"--out = {str(out)!r}: is an existing file; allowed: a folder "
+                              "(new, or the study folder of an earlier call)")
     levels = [float(v) for v in levels]
     chosen, comps = _check_inputs(suite, records, components, im, levels, workers, scheduler)
     if failed not in ("exceed", "exclude"):
@@ -407,12 +410,17 @@ def run_ida(scene, *, suite: str, im: str, levels, out, records=None, components
             T1 = T1_info["T1"]
             say(f"T1 = {T1:.4f} s (f1 = {T1_info['f1_hz']:.4f} Hz, modal analysis, bonded "
                 "interface)")
+        from ..setup import validate
         from .im import scale_factor
         cache = {}
         for p in pending:
             key = p["address"]
             if key not in cache:
                 unit = _run_scene(base, key, 1.0, window)
+                try:
+                    validate(unit)          # the window inside the record, as --dry-run
+                except ValueError as e:
+                    raise StudyInputError(f"run {p['id']}: {e}") from None
                 cache[key] = scale_factor(unit, im, 1.0, T1)[1]
                 w = _window_note(unit)
                 if w:
