@@ -153,7 +153,7 @@ class Interface:
 
 @dataclass(frozen=True)
 class Uplift:
-    """[uplift] pore pressure on the joints (issue #13; docs/decisions.md "Safety"). A joint's
+    """[uplift] pore pressure on the joints (docs/decisions.md "Safety"). A joint's
     own ``uplift = {...}`` table in [[joints]] overrides keys of the scene-wide one."""
     model: str = _f("none", choices=("none", "linear", "drains"),
                     doc="none; linear (headwater at the upstream end to tailwater at the "
@@ -172,7 +172,7 @@ class Uplift:
 
 @dataclass(frozen=True)
 class Screening:
-    """[screening] linear screening of the dam body (USACE EM 1110-2-6053; issue #13): per
+    """[screening] linear screening of the dam body (USACE EM 1110-2-6053): per
     element the demand-capacity ratio max principal tension / tensile_strength every step."""
     enabled: bool = _f(False, doc="meant for a linear run (interface kept elastic)")
     tensile_strength: float = _f(3.0e6, lo=0.0, hi=1e9, lo_open=True,
@@ -210,7 +210,7 @@ class Solver:
 
 @dataclass(frozen=True)
 class Reservoir:
-    """[reservoir] (issue #12; docs/decisions.md "Reservoir").  ``level`` is the one water level
+    """[reservoir] (docs/decisions.md "Reservoir").  ``level`` is the one water level
     (hydrostatic load and hydrodynamic model); ``loads.reservoir_level`` is its alias."""
     model: str = _f("none", choices=("none", "westergaard", "acoustic"),
                     doc="hydrodynamic model: none (hydrostatic only), Westergaard added mass, "

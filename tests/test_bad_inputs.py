@@ -1,4 +1,4 @@
-"""The bad-input catalogue (issue #8): every mistake in an input gives one clear ValueError that
+"""The bad-input catalogue: every mistake in an input gives one clear ValueError that
 names the field (or file and line), the value and what is allowed. Each case asserts the words
 of the message, so a vaguer message fails the test."""
 import numpy as np
@@ -118,7 +118,7 @@ SCENES = [
     (["interface.contact='soft'"], r"interface.contact = 'soft': not allowed"),
     (["mesh.h_heel"], r"expected KEY.PATH=VALUE"),
     (["mesh.h_heel=[1,"], r"is not a TOML literal"),
-    # [reservoir] (issue #12)
+    # [reservoir]
     (["reservoir.length=2e4"], r"reservoir.length = 20000.0: out of range, allowed \(0.0, 10000.0\]"),
     (["reservoir.model=acoustic", "reservoir.length=50"],
      r"reservoir.length = 50.0: shorter than the depth reservoir.level = 92.0"),
@@ -131,7 +131,7 @@ SCENES = [
      r"reservoir.level = 0.0 with reservoir.model = 'westergaard': no water"),
     (["reservoir.far_end=open"], r"reservoir.far_end = 'open': not allowed"),
     (["reservoir.model=potential"], r"reservoir.model = 'potential': not allowed"),
-    # [uplift] and the foundation models (issue #13)
+    # [uplift] and the foundation models
     (["uplift.model=drains", "uplift.drain_x=80"],
      r"uplift.drain_x = 80.0: the drain line is outside the base; allowed: \(0, 70\) m"),
     (["joints=[{name='neck', elevation=66.5, uplift={model='drains', drain_x=30.0}}]"],

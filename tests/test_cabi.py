@@ -1,4 +1,4 @@
-"""The C ABI (interfacelaw/cabi.py, issue #16): the numba cfunc called through ctypes, as a C
+"""The C ABI (interfacelaw/cabi.py): the numba cfunc called through ctypes, as a C
 host calls it, against InterfaceLaw.evaluate.
 
 Tolerance of the comparisons: the C function runs the same compiled kernel

@@ -1,4 +1,4 @@
-"""The material-point study of the damage forms (verification/damage_rate.py, issue #17) in fast
+"""The material-point study of the damage forms (verification/damage_rate.py) in fast
 mode: its numbers against closed forms derived independently here.
 
 History: N cycles g_N = A (1 − cos 2πft)/2 sampled with n equal steps per cycle (n even), β = 0.

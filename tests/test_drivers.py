@@ -1,4 +1,4 @@
-"""Tests of interfacelaw.drivers (issue #3): each ready path checks one physical number.
+"""Tests of interfacelaw.drivers: each ready path checks one physical number.
 
 Tolerances: the law's dissipation formula is exact for proportional paths whatever the number of
 increments (docs/decisions.md §1.2), so energies are checked to 1e-10 relative (rounding of a

@@ -1,5 +1,5 @@
 """examples/*.py run as a user runs them (``python examples/X.py``): each must exit 0 and print
-its asserted number, which is checked again here against an independent value (issue #16)."""
+its asserted number, which is checked again here against an independent value."""
 from __future__ import annotations
 
 import importlib.util

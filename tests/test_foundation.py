@@ -1,4 +1,4 @@
-"""Foundation models (issue #13): the massless rock and the Lysmer-Kuhlemeyer absorbing bottom,
+"""Foundation models: the massless rock and the Lysmer-Kuhlemeyer absorbing bottom,
 on coarse meshes (koyna_smoke; a 2 m x 100 m column)."""
 import dataclasses
 import pathlib

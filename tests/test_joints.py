@@ -1,4 +1,4 @@
-"""Lift joints (issue #11): a joint is an interface like the base, with its own fields on both
+"""Lift joints: a joint is an interface like the base, with its own fields on both
 sides, its own law, in the one condensed solver."""
 import json
 

@@ -145,7 +145,7 @@ def test_resume_other_scene_refused(tmp_path, smoke_model):
 
 
 def test_smoke_unchanged_by_the_pipeline_restructure(smoke_run):
-    """Issue #11 acceptance: koyna_smoke gives the crest displacement and D, kappa profiles of
+    """Koyna_smoke gives the crest displacement and D, kappa profiles of
     the code before the restructure (values recorded at full precision from commit db5efde in
     tests/data/koyna_smoke_before.npz). Tolerance 1e-10 relative to the largest value: the
     new hydrostatic load integrates -p n . v with NGSolve's normal instead of p v_x, which

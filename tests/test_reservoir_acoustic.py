@@ -1,4 +1,4 @@
-"""Acoustic reservoir (issue #12): rigid-wall verification problems on a rectangular water mesh
+"""Acoustic reservoir: rigid-wall verification problems on a rectangular water mesh
 (92 m x 300 m, the paper's reservoir) against the analytic solutions, and the incompressible
 acoustic added mass of the Koyna classic section."""
 import math

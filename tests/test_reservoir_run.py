@@ -1,4 +1,4 @@
-"""Reservoir in the time stepping (issue #12): the coupled dam-water system through the condensed
+"""Reservoir in the time stepping: the coupled dam-water system through the condensed
 Newmark solver conserves energy; a run with the acoustic reservoir writes the pressure outputs."""
 import csv
 

@@ -1,4 +1,4 @@
-"""The per-step bookkeeping of a run (issue #15): the energy budget's damping work formed from
+"""The per-step bookkeeping of a run: the energy budget's damping work formed from
 the products it takes anyway, the skipped size-scale update, the history buffer. No NGSolve."""
 from types import SimpleNamespace
 

@@ -1,4 +1,4 @@
-"""Safety outputs (issue #13): joint forces, uplift, sliding FS, post-earthquake state, on the
+"""Safety outputs: joint forces, uplift, sliding FS, post-earthquake state, on the
 coarse koyna_smoke mesh with a rigid foundation (a few hundred DOFs)."""
 import json
 

@@ -1,4 +1,4 @@
-"""Linear screening (USACE EM 1110-2-6053; issue #13): the DCR map of the dam body and the
+"""Linear screening (USACE EM 1110-2-6053): the DCR map of the dam body and the
 cumulative inelastic duration, on the coarse koyna_smoke mesh with a rigid foundation."""
 import json
 

@@ -1,4 +1,4 @@
-"""Koyna benchmarks of issue #7 (docs/decisions.md §6, §7): writes verification/out/bench_koyna.json
+"""Koyna benchmarks (docs/decisions.md §6, §7): writes verification/out/bench_koyna.json
 and (through verification/write_benchmarks.py) the Koyna section of BENCHMARKS.md.
 
 1. time per step and Newton iterations against DOFs (mesh.h_coarse = 4, 2, 1 at the default
@@ -645,9 +645,9 @@ def ratios(res):
 
 
 # ---------------------------------------------------------------------------------------------
-# issue #15 (SPEED), targets 2-5
+# speed targets 2-5 (parts 5-8)
 # ---------------------------------------------------------------------------------------------
-# the scene of issue #15 (filed before the koyna scene's reservoir became "acoustic"): the dam
+# the scene of the speed targets (set before the koyna scene's reservoir became "acoustic"): the dam
 # without the water domain, so that before/after and the issue's figures compare
 NL_SET = ("ground_motion.scale=0.2", "reservoir.model=none")
 LIN_SET = ("ground_motion.scale=0.001", "interface.damage=false", "reservoir.model=none")
@@ -872,7 +872,7 @@ def plot7(res):
         ax.set_ylabel("CPU ms per step (median)")
         ax.grid(True, which="both", alpha=0.3)
         ax.legend()
-    fig.suptitle("Koyna: time per implicit step (issue #15, target 3)")
+    fig.suptitle("Koyna: time per implicit step (target 3)")
     fig.tight_layout()
     OUT.mkdir(parents=True, exist_ok=True)
     fig.savefig(OUT / "bench15_scaling.png", dpi=110)
@@ -883,8 +883,9 @@ def plot7(res):
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--parts", default="1,2,3,4",
-                    help="1-4: issue #7; 5: #15 target 2 + memory, 6: #15 target 5 (full "
-                         "intensity), 7: #15 target 3 (scaling), 8: #15 target 2 per step "
+                    help="1-4: time per step, full run, condensed vs full Newton, OpenSees; 5: "
+                         "speed target 2 + memory, 6: target 5 (full intensity), 7: target 3 "
+                         "(scaling), 8: target 2 per step "
                          "(CPU time, interleaved)")
     ap.add_argument("--repeats", type=int, default=3)
     ap.add_argument("--alpha1", action="store_true", help="also the full run with alpha = 1")

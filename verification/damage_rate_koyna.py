@@ -1,4 +1,4 @@
-"""Koyna study of the three readings of the damage law, Eq. 7 (issue #17, DAMAGE-RATE).
+"""Koyna study of the three readings of the damage law, Eq. 7 (DAMAGE-RATE).
 
 Which combination of damage form (``interface.damage_form`` = paper | objective | rate), g_max
 and t_ref reproduces the paper's three §5 statements on the Koyna scene, and at which record
@@ -284,7 +284,7 @@ def objectivity(recs: dict) -> list[dict]:
 def write_report(cfg, recs, combos, path: pathlib.Path, best, obj=()):
     res = sorted({r["reservoir"] for r in recs.values()})
     lines = [
-        (f"# Koyna: damage form x alpha x g_max x t_ref (issue #17) — scene `{cfg['scene']}`, "
+        (f"# Koyna: damage form x alpha x g_max x t_ref — scene `{cfg['scene']}`, "
         f"reservoir {', '.join(res)}, SYNTHETIC record"),
         "",
         ("Per run (all from summary.json): max D_heel, t at which D_heel = 1, heel crack final / "

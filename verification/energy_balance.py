@@ -1,4 +1,4 @@
-"""Energy balance of dam runs against the time step, with run time (issue #11; decisions §10.3).
+"""Energy balance of dam runs against the time step, with run time (decisions §10.3).
 
 The budget of ``run.energy`` closes exactly for the bulk (average-acceleration Newmark) and up
 to the trapezoid error of the interface work for the joints; this study measures the largest

@@ -1,4 +1,4 @@
-"""Koyna run: error against run time (issue #6) — intensity sweep, Gauss points per segment,
+"""Koyna run: error against run time — intensity sweep, Gauss points per segment,
 time step, g_max sensitivity.  ``main(fast, outdir)`` writes ``koyna_studies.md`` (tables),
 ``koyna_studies_summary.txt`` (prose, recommended defaults) and PNGs into ``outdir``.
 
@@ -229,7 +229,7 @@ def write_tables(path, cfg, state):
     """Markdown report from whatever has finished so far (called after every run)."""
     R = state["runner"].records
     get = lambda s: R.get(tag_of(s))  # noqa: E731
-    L = ["# Koyna run: error against run time (issue #6)", "",
+    L = ["# Koyna run: error against run time", "",
          f"Scene `{cfg['scene']}`; intensity sweep with `"
          + " ".join(f"--set {x}" for x in sets_list(cfg['window']))
          + "`, convergence studies with `"

@@ -1,5 +1,5 @@
-"""Double cantilever beam (mode I), quasi-static under displacement control (issue #6,
-"Error against run time").
+"""Double cantilever beam (mode I), quasi-static under displacement control ("Error against
+run time").
 
 Two elastic arms of height ``h`` (regions "top", "bottom"; thickness ``b``), length ``L``,
 an unbonded initial crack on ``0 <= x <= a0`` and the project's interface law on the bonded

@@ -1,4 +1,4 @@
-"""Linear NGSolve model of the Koyna dam on its rock foundation (issue #5).
+"""Linear NGSolve model of the Koyna dam on its rock foundation.
 
 Everything the nonlinear solver needs, as scipy sparse matrices restricted to the free DOFs:
 stiffness ``K``, mass ``M``, loads ``f_gravity`` / ``f_water``, influence vectors ``r_x`` /
@@ -211,7 +211,7 @@ def build_model(foundation: str = "rock", order: int = 1, gauss_points: int = 3,
         raise ValueError(f"gauss_points={gauss_points}: must be >= 1")
     # reservoir: a scene [reservoir] table (fe/reservoir.py; none -> nothing is built)
     reservoir = mesh_kw.pop("reservoir", None)
-    # issue #13: "massed" is the rock block ("rock" its alias); "massless" the same block
+    # "massed" is the rock block ("rock" its alias); "massless" the same block
     # without mass (docs/decisions.md §9)
     foundation_name = foundation
     massless = foundation == "massless"

@@ -100,7 +100,7 @@ class Checkpointer:
         return self.every > 0 and step > 0 and step % self.every == 0
 
     def save(self, step: int, meta: dict, **arrays) -> None:
-        """Serialise the checkpoint now; write it in the background (issue #15): the npz, then
+        """Serialise the checkpoint now; write it in the background: the npz, then
         the json that names it (the commit point), then the previous npz removed, in this
         order in one writer thread, so the time loop does not wait for the disk (write and
         fsync, ~10-15 ms per Koyna checkpoint). One write at a time: a save waits for the

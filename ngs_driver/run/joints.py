@@ -132,7 +132,7 @@ def _scan(starts, stops, par, w, kappa, damage, t, g, wd, wb, cpb, stored, ints,
 class JointScan:
     """What a step's measures need from the committed state, computed once for every joint
     in one compiled pass (``_scan``) instead of ~40 small numpy operations spread over the
-    joints', safety's and energy's measures (issue #15). Fields per joint i (``slices[i]``):
+    joints', safety's and energy's measures. Fields per joint i (``slices[i]``):
     n_debonded, crack_length, crack_length_upstream, max_D, bonded_length, bonded(i) -> (w,
     c_p) of its bonded points; ``stored`` the recoverable energy of every point."""
 

@@ -238,7 +238,7 @@ def demand_measures(summary: dict | None, rec: dict, model, base=slice(None)) ->
     })
     d["full_base_failure"] = int(bool(stopped) or
                                  res["crack_length_total_max"] >= base_len * (1 - 1e-9))
-    # SAFETY (issue #13) when present: per joint min FS, slip, post-earthquake FS ...
+    # SAFETY when present: per joint min FS, slip, post-earthquake FS ...
     safety = summary.get("safety") or {}
     _flat("safety", safety.get("joints", {}), d)
     for k, v in (summary.get("post_earthquake") or {}).items():

@@ -1,4 +1,4 @@
-"""IDA throughput (issue #14): runs per hour with 1 worker and with all cores, the scaling
+"""IDA throughput: runs per hour with 1 worker and with all cores, the scaling
 efficiency, the cost of one run of the default scene, and from these an estimate of the wall
 time of the FEMA P695 far-field suite (22 records x 2 components) x 10 levels on 1, 2, 64 cores.
 

@@ -1,4 +1,4 @@
-"""Koyna benchmarks of issue #7 (per implicit step on the Koyna dam-foundation mesh): the
+"""Koyna benchmarks (per implicit step on the Koyna dam-foundation mesh): the
 condensed solver with the scene's nonlinear interface law (strong part of the record), the
 re-factorising full Newton, our solver on a linear (elastic-branch) interface, and OpenSeesPy
 linear on the same mesh (skipped without openseespy: `pip install -e .[bench]`).
@@ -30,7 +30,7 @@ def _setup(request):
     """(scene, model, (a0, a1)): default Koyna mesh with make bench, tiny mesh otherwise."""
     key = _enabled(request)
     if key not in _CACHE:
-        # no reservoir: the scene of issues #7 and #15 (and OpenSees models dam and rock only)
+        # no reservoir: the benchmark scene (and OpenSees models dam and rock only)
         sc = bk.scene(["reservoir.model=none"] + ([] if key else TINY))
         m = bk.model_of(sc)
         _CACHE[key] = (sc, m, bk.rayleigh(m, sc))
@@ -117,7 +117,7 @@ def test_bench_koyna_opensees_linear_step(benchmark, request):
 
 @pytest.mark.parametrize("kind", ["nonlinear", "linear"])
 def test_bench_koyna_02_step(benchmark, request, kind):
-    """Issue #15 target 2 per step: the record at 0.2x from its strong part (t = 2 s),
+    """Speed target 2 per step: the record at 0.2x from its strong part (t = 2 s),
     nonlinear (scene law, alpha = 2: every point slightly damaged, all active) against the same
     steps with an elastic-branch interface; the ratio of the two medians is the per-step cost
     of the interface nonlinearity (verification/bench_koyna.py --parts 5 times whole runs)."""
