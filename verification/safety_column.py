@@ -1,4 +1,4 @@
-"""Check of the Lysmer-Kuhlemeyer absorbing bottom (issue #13; docs/decisions.md §9).
+"""Check of the Lysmer-Kuhlemeyer absorbing bottom (issue #13; docs/safety.md §8).
 
 A rock column (E = 50 GPa, nu = 0.2, rho = 2800 kg/m^3, the paper's rock) of width 2 m and
 depth 100 m, plane strain, P1 triangles of size h, free top, dashpots on the bottom

@@ -435,7 +435,7 @@ def _run(scene, outdir, resume, progress, max_steps, model, plots, log, freeze) 
                    "uplift_fixed_point_unconverged": safety.fixed_point_unconverged,
                    "definition": "FS = (f max(N', 0) + sum over bonded points of w c) / |T| "
                                  "(EM 1110-2-2100 eq. 3-1; f, c the law's current values); "
-                                 "docs/decisions.md, Safety"},
+                                 "docs/safety.md §4"},
         "screening": None if safety.screening is None else safety.screening.summary(),
         "resumed_from_step": resumed_from,
         "environment": environment_info(),
@@ -492,4 +492,4 @@ def energy_summary(H, keys) -> dict:
             "input_work_scale": scale,
             "definition": "residual = W_ext - (E_kin + E_bulk + E_damp + E_stored + E_diss "
                           "+ E_scaling), "
-                          "from the static state; docs/decisions.md §7.4"}
+                          "from the static state; docs/solver.md §9"}

@@ -25,7 +25,7 @@ def run_modal(scene, out_dir=None, n_modes: int = 6, model=None):
     damp = damping_from_modes(res, d.ratio, d.modes, d.frequencies or None)
     out = Path(out_dir if out_dir is not None else scene.output.dir)
     extra = {"scene": scene.name, "nfree": md.nfree}
-    if getattr(md, "reservoir", None) is not None:          # docs/decisions.md "Reservoir"
+    if getattr(md, "reservoir", None) is not None:          # docs/reservoir.md §5
         from ..fe.reservoir import modal_extra
         extra["reservoir"] = modal_extra(md, scene, kn, kt, out)
     write_modal_json(out / "modal.json", res, damp, extra)

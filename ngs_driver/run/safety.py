@@ -13,7 +13,7 @@ solve and each time step is repeated from the committed state with the p of the 
 ended in until the crack state no longer changes (a fixed point over the whole step, not a lag:
 the accepted step satisfies the equations with the p of its own end-of-step crack state).
 
-Safety measures per joint (docs/decisions.md "Safety"):
+Safety measures per joint (docs/safety.md §4):
 
     N' = -sum w t_N    effective normal force [N/m] (compression positive; uplift already out)
     T  = |sum w t_T|   shear force [N/m]
@@ -410,7 +410,7 @@ class Safety:
 
 
 class Screening:
-    """Linear screening of the dam body (USACE EM 1110-2-6053; docs/decisions.md §9): per dam
+    """Linear screening of the dam body (USACE EM 1110-2-6053; docs/safety.md §10): per dam
     element (P1 triangles: constant stress) the demand-capacity ratio DCR = max principal
     stress / tensile strength at the static state and every step, its maximum over time and
     the cumulative inelastic duration (time with DCR > 1)."""
