@@ -6,7 +6,7 @@ Optional parts (contact, friction, damage) are passed as a float64 parameter arr
 numba compiles one specialisation per combination and prunes the branches of the parts that are
 ``None`` at compile time, so a law without friction or damage never computes them.
 
-The equations are those of docs/decisions.md §1, derivatives written beside each formula.
+The equations are those of docs/law.md, derivatives written beside each formula.
 Components: 0 = normal, 1 and 2 = tangential (2 is absent in 2D).
 
 Speed (issue #15, BENCHMARKS.md): the loops are written so that LLVM vectorises them (AVX2: 4

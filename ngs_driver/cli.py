@@ -242,7 +242,7 @@ def cmd_modal(a) -> int:
           f"({damp['source']}: {damp['f_a']:.3f}, {damp['f_b']:.3f} Hz)")
     print(f"wrote {out / 'modal.json'}")
     rinfo = json.loads((out / "modal.json").read_text()).get("reservoir")
-    if rinfo:                                  # docs/decisions.md "Reservoir"
+    if rinfo:                                  # docs/reservoir.md §5
         print(f"reservoir {rinfo['kind']}, level {rinfo['level']:g} m: {rinfo.get('note', '')}")
         fr = rinfo.get("frequency_response")
         if fr:

@@ -42,14 +42,14 @@ class Geometry:
                            "path is taken from the scene file's folder")
     foundation: str = _f("rock", choices=("rock", "rigid", "massless", "massed"),
                          doc="rigid (no rock), massless (rock stiffness without mass) or massed "
-                             "rock block; 'rock' is the alias of 'massed' (docs/decisions.md §9)")
+                             "rock block; 'rock' is the alias of 'massed' (docs/safety.md)")
     extent_up: float = _f(1.0, lo=0.1, hi=10.0, doc="rock extent upstream / base width")
     extent_down: float = _f(1.0, lo=0.1, hi=10.0, doc="rock extent downstream / base width")
     extent_depth: float = _f(1.0, lo=0.1, hi=10.0, doc="rock depth / base width")
     rock_sides: str = _f("fixed", choices=("fixed", "roller", "free", "absorbing"),
                          doc="absorbing: Lysmer-Kuhlemeyer dashpots on the sides and bottom, the "
                              "record as the outcrop motion entering through free-field forces "
-                             "(massed rock only; docs/decisions.md §9)")
+                             "(massed rock only; docs/safety.md)")
     matching: bool = _f(True, doc="False: dam and rock meshed separately (node-to-segment)")
 
 
@@ -153,7 +153,7 @@ class Interface:
 
 @dataclass(frozen=True)
 class Uplift:
-    """[uplift] pore pressure on the joints (docs/decisions.md "Safety"). A joint's
+    """[uplift] pore pressure on the joints (docs/safety.md). A joint's
     own ``uplift = {...}`` table in [[joints]] overrides keys of the scene-wide one."""
     model: str = _f("none", choices=("none", "linear", "drains"),
                     doc="none; linear (headwater at the upstream end to tailwater at the "
@@ -210,7 +210,7 @@ class Solver:
 
 @dataclass(frozen=True)
 class Reservoir:
-    """[reservoir] (docs/decisions.md "Reservoir").  ``level`` is the one water level
+    """[reservoir] (docs/reservoir.md).  ``level`` is the one water level
     (hydrostatic load and hydrodynamic model); ``loads.reservoir_level`` is its alias."""
     model: str = _f("none", choices=("none", "westergaard", "acoustic"),
                     doc="hydrodynamic model: none (hydrostatic only), Westergaard added mass, "
@@ -268,7 +268,7 @@ class Scene:
 
 @dataclass(frozen=True)
 class PointPath:
-    """A single-point load path of interfacelaw.drivers (docs/decisions.md §3)."""
+    """A single-point load path of interfacelaw.drivers (docs/verification.md)."""
     type: str = _f("mode_I", choices=("mode_I", "mode_II", "mixed", "load_unload_reload",
                                       "closure_reopening", "cycles", "shear_under_pressure"))
     n: int = _f(200, lo=1, hi=10 ** 7, doc="increments (per cycle for cycles/shear paths)")

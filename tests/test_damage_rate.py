@@ -1,4 +1,4 @@
-"""The damage form "rate" (docs/decisions.md §1.5): Eq. 7 read as a rate of the
+"""The damage form "rate" (docs/law.md (damage forms)): Eq. 7 read as a rate of the
 opening rate, per step ΔD = (Δg⁺/g_max)^α (Δt/t_ref)^(1−α) B.
 
 Tolerances: the step-objectivity checks sum N equal terms (rounding ~N eps ~ 1e-13 for N ≤ 1000):

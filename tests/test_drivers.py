@@ -1,7 +1,7 @@
 """Tests of interfacelaw.drivers: each ready path checks one physical number.
 
 Tolerances: the law's dissipation formula is exact for proportional paths whatever the number of
-increments (docs/decisions.md §1.2), so energies are checked to 1e-10 relative (rounding of a
+increments (docs/law.md §3), so energies are checked to 1e-10 relative (rounding of a
 few hundred to a thousand additions is ~1e-13). Tractions on a breakpoint are closed-form
 arithmetic: 1e-12 relative.
 """
@@ -206,7 +206,7 @@ def test_shear_under_pressure_friction_plateau():
 def test_energy_balance_shear_under_pressure_stiff_penalty(contact):
     # regression: a linear penalty stiffer than the intact bond once created energy at
     # debonding under pressure (2.5 J/m^2 here); the linear default K_int = C_N and the capped
-    # rough law with its release term (docs/decisions.md §1.3) keep dissipated <= work
+    # rough law with its release term (docs/law.md §4) keep dissipated <= work
     law = InterfaceLaw(COH, contact, FrictionParams(0.5))
     h = dr.shear_under_pressure(law, 0.5 * COH.sigma_max, 3 * COH.l_Tc, 1, 1000)
     assert h.converged

@@ -41,7 +41,7 @@ def test_every_example_is_tested():
 
 def test_readme_snippet():
     out = run("examples/ex01_readme_snippet.py")
-    # the hand formula of decisions §1.1/§1.5 with the snippet's numbers, independently here:
+    # the hand formula of docs/law.md §2/§6 with the snippet's numbers, independently here:
     # l_Nc = 2 G_I / sigma_max, u = g_N / l_Nc, s = (1/u - 1)/(1 - lambda_max), D = (g/g_max)^2
     u = 5e-5 / (2 * 250.0 / 3e6)
     F = (1 - (5e-5 / 6.67e-4) ** 2) * (1 / u - 1) / 0.8 * 3e6 * u

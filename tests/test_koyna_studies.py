@@ -6,7 +6,7 @@ Assertions and why they are robust:
 * repeatability: two runs with identical settings give the same crack length, peak crest
   displacement and max D to 1e-12 — the whole error-against-run-time study rests on differences
   between runs being caused by the knob, not by run-to-run noise (ARPACK's random start vector
-  once made identical runs differ by 1e-11, docs/decisions.md §7 step 3);
+  once made identical runs differ by 1e-11, docs/model.md §8);
 * g_max: for each alpha the max damage falls when g_max grows tenfold (Eq. 7: every increment
   gives (dg/g_max)^alpha, so a tenfold g_max divides each increment by 10^alpha; a changed path
   cannot undo a factor 10-100);

@@ -1,4 +1,4 @@
-"""Unit and regression tests of the interface law (docs/decisions.md §1)."""
+"""Unit and regression tests of the interface law (docs/law.md)."""
 import math
 
 import numpy as np

@@ -1,4 +1,4 @@
-"""Koyna benchmarks (docs/decisions.md §6, §7): writes verification/out/bench_koyna.json
+"""Koyna benchmarks (docs/solver.md): writes verification/out/bench_koyna.json
 and (through verification/write_benchmarks.py) the Koyna section of BENCHMARKS.md.
 
 1. time per step and Newton iterations against DOFs (mesh.h_coarse = 4, 2, 1 at the default

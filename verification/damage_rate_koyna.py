@@ -10,7 +10,7 @@ intensity (``ground_motion.scale`` of the shipped SYNTHETIC record, 0.49 g horiz
 
 A *combination* is (form, g_max, t_ref, scale); it reproduces the paper when its alpha = 2 run
 meets S1 and S2 and its alpha = 1 run meets S3.  For alpha = 1 the three forms are the same law
-(docs/decisions.md §1.5: the rate form takes the paper's code path, the objective form
+(docs/law.md §6: the rate form takes the paper's code path, the objective form
 D = p/g_max is the paper's sum), so one alpha = 1 run per (g_max, scale) serves all forms
 (the fast mode checks the identity on the dam).
 

@@ -55,7 +55,7 @@ def main(fast: bool = False, outdir=None) -> dict:
     lines = ["## Energy balance against the time step (koyna_smoke, 0.1 s at 3 x the strong "
              "phase)", "",
              "Residual = max |W_ext - (E_kin + E_bulk + E_damp + E_stored + E_diss + "
-             "E_scaling)| / max |W_ext| over the run (docs/decisions.md §10.3).", "",
+             "E_scaling)| / max |W_ext| over the run (docs/solver.md (energy budget)).", "",
              "| run | dt [s] | residual / input work | E_scaling / input work | cuts | "
              "debonded [m] | wall [s] |", "|---|---|---|---|---|---|---|"]
     for k, r in rows.items():

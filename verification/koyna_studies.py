@@ -501,7 +501,7 @@ g_max = 4 l_Nc unless stated):
 * Damage and dt (Eq. 7). alpha = 2: max D = 0.0258, 0.0157, 0.0089, 0.0051, 0.0043 at dt = 8, 4, 2, 1,
   0.5 ms -- a factor 6 over the range; its dynamic part (above the static 0.0035) falls as dt^1.2
   (0.0223 -> 0.0008, a factor 27). There is no converged value to approach: with alpha = 2 every step
-  adds (dg/g_max)^2, so refining dt drives the dynamic damage to zero (docs/decisions.md §3 D4); the
+  adds (dg/g_max)^2, so refining dt drives the dynamic damage to zero (docs/law.md §6.1); the
   crack is unaffected only because it is driven by the cohesive softening (kappa), not by D. alpha = 1
   (g_max = 40 l_Nc, partial crack): max D = 0.0379, 0.0409, 0.0401, 0.0407, 0.0408 -- within 7 % over
   the same range (1.7 % from the 0.5 ms value at dt = 2 ms). At the default g_max = 4 l_Nc alpha = 1 does not
@@ -706,7 +706,7 @@ def main(fast: bool = False, outdir=ROOT / "verification" / "out", jobs: int | N
         notes.append(f"{_lab(a, m)}: max D = {D[i]:.4g} at dt = {1e3 * d[i]:g} ms and "
                      f"{D[j]:.4g} at dt = {1e3 * d[j]:g} ms (ratio {D[i] / D[j]:.3g} for a dt "
                      f"ratio {d[i] / d[j]:g}; log-log slope {slope:.2f})")
-    state["dt_D_note"] = ("Step-size dependence of the damage law (Eq. 7, docs/decisions.md §3 D4): "
+    state["dt_D_note"] = ("Step-size dependence of the damage law (Eq. 7, docs/law.md §6.1): "
                           + "; ".join(notes) + ".")
     gl = []
     for a in cfg["alphas"]:

@@ -1,4 +1,4 @@
-"""Acoustic reservoir (docs/decisions.md "Reservoir"): hydrodynamic pressure p in an
+"""Acoustic reservoir (docs/reservoir.md): hydrodynamic pressure p in an
 NGSolve H1 space on a water mesh glued to the dam's upstream face.
 
 Water: x < face, 0 <= y <= H (level), length L upstream of the heel.  p is the hydrodynamic

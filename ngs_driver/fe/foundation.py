@@ -1,4 +1,4 @@
-"""Foundation models (docs/decisions.md §9): the massless rock's DOFs and Lysmer-Kuhlemeyer
+"""Foundation models (docs/safety.md): the massless rock's DOFs and Lysmer-Kuhlemeyer
 viscous boundaries.
 
 * ``massless_dofs(M)``: free DOFs without mass (zero rows of M: the massless rock block; their
@@ -54,7 +54,7 @@ def dashpot_matrix(mesh, fes, free, boundaries: str, E: float, nu: float, rho: f
 
 class AbsorbingRock:
     """A massed rock block with Lysmer-Kuhlemeyer dashpots on its sides and bottom and the
-    earthquake entered as free-field forces (docs/decisions.md §9).
+    earthquake entered as free-field forces (docs/safety.md).
 
     The given record is the **outcrop** motion (the free surface of the rock, y = 0). For
     vertically incident waves in the homogeneous rock (S for x, P for y) the free field is

@@ -1,5 +1,5 @@
 """Static loads assembled on the model besides gravity and the reservoir (fe/model.py):
-hydrostatic tailwater (USACE EM 1110-2-2100 §3-3; docs/decisions.md "Safety")."""
+hydrostatic tailwater (USACE EM 1110-2-2100 §3-3; docs/safety.md)."""
 from __future__ import annotations
 
 __all__ = ["tailwater_load"]

@@ -18,7 +18,7 @@ def paper_k0(sigma_max: float = 3e6, tau_max: float = 3e6, G_I: float = 250.0,
              lambda_max: float = 0.2, ratio_lTc_lNc: float = 1.0) -> tuple[float, float]:
     """Initial (bonded) stiffness [Pa/m] (normal, tangential) of the paper's law:
     k_N = sigma_max/(lambda_max l_Nc), k_T = tau_max l_Nc/(lambda_max l_Tc^2),
-    l_Nc = 2 G_I/sigma_max, l_Tc = ratio l_Nc (docs/decisions.md §1.1).
+    l_Nc = 2 G_I/sigma_max, l_Tc = ratio l_Nc (docs/law.md §2).
     Paper values: 3e6 / (0.2 * 1.667e-4) = 9.0e10 Pa/m."""
     l_nc = 2.0 * G_I / sigma_max
     l_tc = ratio_lTc_lNc * l_nc

@@ -212,7 +212,7 @@ def build_model(foundation: str = "rock", order: int = 1, gauss_points: int = 3,
     # reservoir: a scene [reservoir] table (fe/reservoir.py; none -> nothing is built)
     reservoir = mesh_kw.pop("reservoir", None)
     # "massed" is the rock block ("rock" its alias); "massless" the same block
-    # without mass (docs/decisions.md §9)
+    # without mass (docs/safety.md)
     foundation_name = foundation
     massless = foundation == "massless"
     if foundation in ("massed", "massless"):

@@ -1,4 +1,4 @@
-"""Hydrodynamic reservoir models on the dam's free DOFs (docs/decisions.md "Reservoir").
+"""Hydrodynamic reservoir models on the dam's free DOFs (docs/reservoir.md).
 
 * ``westergaard_added_mass``: Westergaard's (1933) added mass m(y) = 7/8 rho_w sqrt(H (H - y))
   per unit area of the wetted upstream face, acting along the face normal (the generalised

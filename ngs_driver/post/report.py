@@ -209,7 +209,7 @@ increments, and what we observe is reported in the table above.
 
 
 def safety_table(data) -> str:
-    """The base's sliding safety of each run (docs/decisions.md §9); empty for runs
+    """The base's sliding safety of each run (docs/safety.md); empty for runs
     written before the safety outputs existed."""
     rows = []
     for k, (s, H, Dp) in data.items():

@@ -1,4 +1,4 @@
-"""The energy budget of a run, step by step (docs/decisions.md §7.4).
+"""The energy budget of a run, step by step (docs/solver.md §9).
 
 From the static state (t = 0) on, per metre of dam [J/m]:
 

@@ -27,7 +27,7 @@ def run_modal(scene, out_dir=None, n_modes: int = 6, model=None):
     damp = damping_from_modes(res, d.ratio, d.modes, d.frequencies or None)
     out = Path(out_dir if out_dir is not None else scene.output.dir)
     extra = {"scene": scene.name, "nfree": md.nfree}
-    if getattr(md, "reservoir", None) is not None:          # docs/decisions.md "Reservoir"
+    if getattr(md, "reservoir", None) is not None:          # docs/reservoir.md
         from ..fe.reservoir import modal_response
         info, resp = modal_response(md, scene, kn, kt)
         if resp is not None:

@@ -1,5 +1,4 @@
-"""The sliding safety of every joint, per step and at the static state (docs/decisions.md
-"Safety"):
+"""The sliding safety of every joint, per step and at the static state (docs/safety.md):
 
     N' = -sum w t_N    effective normal force [N/m] (compression positive; uplift already out)
     T  = |sum w t_T|   shear force [N/m]
@@ -20,7 +19,7 @@ SAFETY_KEYS = ("normal_force", "shear_force", "uplift_force", "bonded_length", "
 FS_CRITERION = 1.3        # post-earthquake sliding criterion (FERC guidelines ch. 3)
 FS_CAP = 1e6              # FS reported when the shear force vanishes
 FS_DEFINITION = ("FS = (f max(N', 0) + sum over bonded points of w c) / |T| (EM 1110-2-2100 "
-                 "eq. 3-1; f, c the law's current values); docs/decisions.md, Safety")
+                 "eq. 3-1; f, c the law's current values); docs/safety.md")
 
 
 class SlidingSafety:

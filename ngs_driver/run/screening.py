@@ -1,4 +1,4 @@
-"""Linear screening of the dam body during a run (USACE EM 1110-2-6053; docs/decisions.md §9):
+"""Linear screening of the dam body during a run (USACE EM 1110-2-6053; docs/safety.md):
 per dam element (P1 triangles: constant stress, ``fe.stress``) the demand-capacity ratio
 DCR = max principal stress / tensile strength at the static state and every step, its maximum
 over time and the cumulative inelastic duration (time with DCR > 1)."""

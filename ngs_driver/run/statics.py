@@ -1,6 +1,6 @@
 """Static solves of a run: the pre-earthquake state (dead load, water, tailwater, the uplift of
 its own crack) and, for a rock without supports (absorbing boundaries), the same model on
-support springs whose reactions then stay as constant loads (docs/decisions.md §9)."""
+support springs whose reactions then stay as constant loads (docs/safety.md)."""
 from __future__ import annotations
 
 import numpy as np

@@ -68,7 +68,7 @@ def energy_summary(H, keys) -> dict:
             "input_work_scale": scale,
             "definition": "residual = W_ext - (E_kin + E_bulk + E_damp + E_stored + E_diss "
                           "+ E_scaling), "
-                          "from the static state; docs/decisions.md §7.4"}
+                          "from the static state; docs/solver.md (energy budget)"}
 
 
 def timings(walls, **phases) -> dict:

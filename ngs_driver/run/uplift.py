@@ -1,5 +1,4 @@
-"""Uplift: the pore pressure on the joints and the solves that use it (docs/decisions.md
-"Safety").
+"""Uplift: the pore pressure on the joints and the solves that use it (docs/safety.md).
 
 Uplift enters the condensed solver as an **external load vector**
 

@@ -1,5 +1,5 @@
 """Compressible water in the condensed Newmark solver: the pressure is eliminated exactly inside
-every step (docs/decisions.md "Reservoir").
+every step (docs/reservoir.md §4).
 
 For a step of size h (coefficients c0..c5 of ``NewmarkSolver.coefficients``) the fluid rows of
 the coupled u-p system (fe/acoustic.py) read

@@ -1,6 +1,6 @@
 """Sparse direct factorisation for the interface solver: SuperLU (scipy.sparse.linalg.splu) for
 the factorisation, and numba triangular solves on its L and U factors (SuperLU's own solve is
-2-4x slower from Python on these matrices; measured in docs/decisions.md §6).
+2-4x slower from Python on these matrices; docs/solver.md §5).
 
     Pr A Pc = L U     (scipy's convention: Pr[perm_r[i], i] = 1, Pc[i, perm_c[i]] = 1)
 """
@@ -298,7 +298,7 @@ class SparseFactor:
             U.sort_indices()
             # int32 pointers (nnz < 2^31 here); unsigned row indices, 16-bit while n < 2^16:
             # no negative-index wraparound test in the compiled loops (each half ~1.4x faster
-            # than int32 on Koyna, measured; docs/decisions.md §6) and fewer bytes to stream
+            # than int32 on Koyna, measured; docs/solver.md §5) and fewer bytes to stream
             ix = _index_dtype(A.shape[0])
             self._L = (L.indptr.astype(np.int32), L.indices.astype(ix), L.data)
             self._pr = lu.perm_r.astype(np.int64)

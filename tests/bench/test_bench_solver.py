@@ -4,7 +4,7 @@ interface, condensed vs full Newton, at three mesh sizes of the block-on-block t
 
 `make bench` runs them (pytest-benchmark, medians in .benchmarks.json); `make test` runs each
 body once with --benchmark-disable on the smallest mesh so it cannot rot.
-Numbers and discussion: docs/decisions.md §6.
+Numbers and discussion: docs/solver.md, BENCHMARKS.md.
 """
 import numpy as np
 import pytest
