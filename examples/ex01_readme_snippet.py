@@ -2,7 +2,7 @@
 
 One loading step opens 1000 points to g_N = 5e-5 m (past the peak: softening), the state is
 committed, and a second step closes them to half that opening. Checked against the hand
-formulas of docs/decisions.md §1.1 and §1.5:
+formulas of docs/law.md §2 and §6:
 
 * loading: F_N = (1 - D) s(lambda) sigma_max u, u = g_N/l_Nc, s = (1/u - 1)/(1 - lambda_max),
   D = (g_N/g_max)^alpha (one damage increment from a virgin point);

@@ -8,7 +8,7 @@ g = (u_z, u_x, u_y)_top - (u_z, u_x, u_y)_bottom, 3D gaps (g_N, g_T1, g_T2). New
 law's consistent tangent (unsymmetric once sliding).
 
 Expected: the shear force first rises to the cohesive peak tau_max l_Nc/l_Tc times the area
-(docs/decisions.md §1.1), the joint debonds, and then slides on the Coulomb plateau
+(docs/law.md §2), the joint debonds, and then slides on the Coulomb plateau
 |F_T| = f p A in whatever direction it is pushed (+x, -x, +y, -y, diagonal); the dissipated
 energy never decreases.
 

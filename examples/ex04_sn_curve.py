@@ -4,7 +4,7 @@ Gap-controlled opening cycles 0 -> A -> 0 below the peak (A <= lambda_max l_Nc: 
 cyclic damage of the paper's Eq. 7 with alpha = 2, beta = 0, F_th = 0. Each of the m loading
 increments of a cycle adds (A / (m g_max))^alpha, so a cycle adds A^2 / (m g_max^2) and the
 cycles to failure follow N_f ~ m (g_max / A)^2: a straight S-N line of slope -alpha in log-log
-(and, for alpha != 1, proportional to m: the step-size dependence of docs/decisions.md §1.5).
+(and, for alpha != 1, proportional to m: the step-size dependence of docs/law.md §6.1).
 
 Run: python examples/ex04_sn_curve.py
 """

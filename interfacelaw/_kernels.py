@@ -6,7 +6,7 @@ Optional parts (contact, friction, damage) are passed as a float64 parameter arr
 numba compiles one specialisation per combination and prunes the branches of the parts that are
 ``None`` at compile time, so a law without friction or damage never computes them.
 
-The equations are those of docs/decisions.md §1, derivatives written beside each formula.
+The equations are those of docs/law.md, derivatives written beside each formula.
 Components: 0 = normal, 1 and 2 = tangential (2 is absent in 2D).
 
 Speed (issue #15, BENCHMARKS.md): the loops are written so that LLVM vectorises them (AVX2: 4
@@ -85,13 +85,6 @@ def _norm(x, y):
     """sqrt(x^2 + y^2): the callers bound |x|, |y| far below 1e150 (InterfaceLaw checks |gap|),
     and an underflow to 0 only happens where the result is not divided by."""
     return np.sqrt(x * x + y * y)
-
-
-@njit(cache=True, error_model="numpy")
-def _point(gN, gT1, gT2, ko, Do, sepo, s1, s2, coh, contact, friction, damage, rdt):
-    """One material point, scalars in, scalars out (the general specialisation of _law)."""
-    return _law(gN, gT1, gT2, ko, Do, sepo, s1, s2, coh, contact, friction, damage, rdt, False,
-                _NO_SPEC, True)
 
 
 @njit(cache=True, inline="always", error_model="numpy")

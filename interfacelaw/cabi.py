@@ -76,7 +76,7 @@ def pack_params(law: InterfaceLaw) -> np.ndarray:
     """The ``params`` array of the C function for ``law`` (float64, PARAMS_SIZE).
 
     Blocks at OFFSETS: the kernel's cohesive, contact, friction and damage tuples (the derived
-    constants of docs/decisions.md §1, as ``InterfaceLaw`` computes them; zeros for an absent
+    constants of docs/law.md, as ``InterfaceLaw`` computes them; zeros for an absent
     part), then t_ref [s] when the law needs dt (damage form "rate"), else 0."""
     if not isinstance(law, InterfaceLaw):
         raise ValueError(f"pack_params law = {law!r} is not allowed; allowed: an InterfaceLaw")

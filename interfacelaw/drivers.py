@@ -94,14 +94,6 @@ class History:
     def ok(self) -> bool:
         return self.converged
 
-    def first_failure(self):
-        """(row, point) of the first non-OK entry, or None."""
-        st = self.status.reshape(len(self.t), -1)
-        bad = np.argwhere(st != OK)
-        if bad.size == 0:
-            return None
-        return int(bad[0, 0]), int(bad[0, 1])
-
     def valid(self) -> "History":
         """The rows before the first failure (of any point)."""
         st = self.status.reshape(len(self.t), -1)

@@ -80,7 +80,7 @@ class InterfaceLaw:
 
     Cohesive zone (always), and optionally contact, friction (needs contact) and cyclic damage.
     The optional parts are chosen once here; the kernel compiled for this combination does not
-    contain the parts that are absent. See docs/decisions.md §1 for the equations.
+    contain the parts that are absent. See docs/law.md for the equations.
 
     Note on damage: for ``alpha != 1`` the paper's damage increment depends on the step size;
     the form "rate" does not (at a constant opening rate) but needs ``evaluate(..., dt=...)``.

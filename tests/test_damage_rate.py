@@ -1,4 +1,4 @@
-"""The damage form "rate" (issue #17, docs/decisions.md §1.5): Eq. 7 read as a rate of the
+"""The damage form "rate" (docs/law.md (damage forms)): Eq. 7 read as a rate of the
 opening rate, per step ΔD = (Δg⁺/g_max)^α (Δt/t_ref)^(1−α) B.
 
 Tolerances: the step-objectivity checks sum N equal terms (rounding ~N eps ~ 1e-13 for N ≤ 1000):
@@ -40,7 +40,7 @@ def open_at_constant_rate(law, g_end, T, N, dim=2):
 # ------------------------------------------------------------------------ acceptance ------
 @pytest.mark.parametrize("alpha", [0.5, 1.0, 2.0, 3.0])
 def test_constant_rate_same_D_for_every_N(alpha):
-    """Issue #17 acceptance: a point opened at a constant rate in N equal steps gets the same D
+    """A point opened at a constant rate in N equal steps gets the same D
     for every N (1e-12), equal to the closed form (ġ t_ref/g_max)^α T/t_ref (β = 0: B = 1)."""
     g_end, T, t_ref, g_max = 0.15 * LN, 0.02, 0.5, 4 * LN     # elastic (lambda <= 0.2)
     law = law_of("rate", alpha, g_max=g_max, t_ref=t_ref)

@@ -38,14 +38,15 @@ ROOT = pathlib.Path(__file__).resolve().parents[1]
 if str(ROOT) not in sys.path:
     sys.path.insert(0, str(ROOT))
 
-from verification import damage_rate_koyna as drk
+from conftest import run_fast_study  # noqa: E402
+from verification import damage_rate_koyna as drk  # noqa: E402
 
 
 @pytest.fixture(scope="module")
 def fast(tmp_path_factory):
     out = tmp_path_factory.mktemp("damage_rate_koyna")
     t0 = time.perf_counter()
-    res = drk.main(fast=True, outdir=out)
+    res = run_fast_study("damage_rate_koyna", out)
     return out, res, time.perf_counter() - t0
 
 

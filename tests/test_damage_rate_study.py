@@ -1,4 +1,4 @@
-"""The material-point study of the damage forms (verification/damage_rate.py, issue #17) in fast
+"""The material-point study of the damage forms (verification/damage_rate.py) in fast
 mode: its numbers against closed forms derived independently here.
 
 History: N cycles g_N = A (1 − cos 2πft)/2 sampled with n equal steps per cycle (n even), β = 0.
@@ -7,7 +7,6 @@ Per loading half, Δg_k = A sin(π/n) sin θ_k with Σ sin²θ_k = n/4 (n ≥ 4)
 and for n = 2 (one step per half) paper N (A/g_max)², rate N (A/g_max)² 2 f t_ref.
 Tolerance 1e-12 relative: sums of a few hundred terms (rounding ~1e-14).
 """
-import importlib.util
 import math
 from pathlib import Path
 
@@ -18,12 +17,9 @@ ROOT = Path(__file__).resolve().parents[1]
 
 @pytest.fixture(scope="module")
 def study(tmp_path_factory):
-    spec = importlib.util.spec_from_file_location("damage_rate",
-                                                  ROOT / "verification" / "damage_rate.py")
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
+    from conftest import run_fast_study
     out = tmp_path_factory.mktemp("damage_rate")
-    return mod.main(fast=True, outdir=out), out
+    return run_fast_study("damage_rate", out), out
 
 
 def expected(form, alpha, f, n, N, x, t_ref):

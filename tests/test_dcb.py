@@ -56,7 +56,7 @@ def test_dissipated_energy_at_full_separation():
     assert np.all(res.state.kappa >= 1.0)
     D = float(prob.interface.w @ res.state.dissipated)
     # symmetric (mirrored) mesh -> g_T = 0 to round-off -> pure mode I, whose work of
-    # separation is exactly G_I per unit area for any number of increments (decisions §1.2)
+    # separation is exactly G_I per unit area for any number of increments (docs/law.md §3)
     assert D == pytest.approx(spec.G_I * spec.bonded_length, rel=1e-6)
     assert abs(res.P[-1]) < 1e-6 * res.P.max()
 

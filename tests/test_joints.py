@@ -1,4 +1,4 @@
-"""Lift joints (issue #11): a joint is an interface like the base, with its own fields on both
+"""Lift joints: a joint is an interface like the base, with its own fields on both
 sides, its own law, in the one condensed solver."""
 import json
 
@@ -30,7 +30,7 @@ def test_joint_patch_test():
     cut by a lift joint: both the base and the joint points carry exactly the applied traction.
     Uniform stress is in the discrete space of linear triangles and the matching joint's gap is
     exact, so only round-off remains (1e-10 relative)."""
-    joint = geom.JointSpec("mid", 8.0, 0.5, 2.0)
+    joint = geom.JointCut("mid", 8.0, 0.5, 2.0)
     md = build_model(foundation="rock", rock_sides="free", reservoir_level=0.0, gravity=0.0,
                      section=BLOCK, joints=[joint], **MESH)
     assert md.regions == ("dam", "dam_mid", "rock")
@@ -69,7 +69,7 @@ def test_joint_weights_and_frame():
     """The joint's Gauss weights add up to the section's width at its elevation (exact for a
     straight cut), and the points run from the upstream face to the downstream face."""
     sec = Section([[0, 0], [60, 0], [10, 60], [0, 60]])
-    j = geom.JointSpec("j", 30.0, 0.5, 2.0)
+    j = geom.JointCut("j", 30.0, 0.5, 2.0)
     md = build_model(foundation="rigid", reservoir_level=0.0, section=sec, joints=[j],
                      **MESH)
     it = md.joints["j"]
@@ -131,7 +131,7 @@ def test_strong_joint_behaves_like_no_joint(tmp_path):
                       crest_point=md.crest_point)
     assert md0.nfree < md.nfree                 # the neck's nodes are shared when glued
     s_0 = run(sc0, tmp_path / "glued", progress=False, plots=False, model=md0)
-    from ngs_driver.out.files import read_csv
+    from ngs_driver.post.files import read_csv
     a = read_csv(tmp_path / "joint" / "timeseries.csv")
     b = read_csv(tmp_path / "glued" / "timeseries.csv")
     amp = np.max(np.abs(b["crest_ux"]))

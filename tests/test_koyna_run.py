@@ -9,7 +9,7 @@ import pytest
 pytest.importorskip("ngsolve")
 
 from ngs_driver.run.dam import RunInterrupted, run  # noqa: E402
-from ngs_driver.run.record import crack_measures  # noqa: E402
+from ngs_driver.run.joints import crack_measures  # noqa: E402
 from ngs_driver.setup import build_law, describe  # noqa: E402
 from ngs_driver.fe.model import build_from_scene  # noqa: E402
 from ngs_driver.scene import load_scene  # noqa: E402
@@ -74,7 +74,7 @@ def test_mesh_triangles_from_netgen_arrays(smoke_model):
     """The figures' triangles from netgen's element arrays are NGSolve's element loop's."""
     import ngsolve as ngs
 
-    from ngs_driver.out.plots import _mesh_triangles
+    from ngs_driver.post.plots import _mesh_triangles
     P, reg = _mesh_triangles(smoke_model.mesh)
     mesh = smoke_model.mesh
     V = np.array([v.point for v in mesh.vertices])
@@ -145,14 +145,14 @@ def test_resume_other_scene_refused(tmp_path, smoke_model):
 
 
 def test_smoke_unchanged_by_the_pipeline_restructure(smoke_run):
-    """Issue #11 acceptance: koyna_smoke gives the crest displacement and D, kappa profiles of
+    """Koyna_smoke gives the crest displacement and D, kappa profiles of
     the code before the restructure (values recorded at full precision from commit db5efde in
     tests/data/koyna_smoke_before.npz). Tolerance 1e-10 relative to the largest value: the
     new hydrostatic load integrates -p n . v with NGSolve's normal instead of p v_x, which
     changes the load vector by round-off (2e-12 measured) and the results by ~3e-12."""
     out, s = smoke_run
     ref = np.load(pathlib.Path(__file__).parent / "data" / "koyna_smoke_before.npz")
-    from ngs_driver.out.files import read_csv
+    from ngs_driver.post.files import read_csv
     H = read_csv(out / "timeseries.csv")
     fs = np.load(out / "final_state.npz")
     for got, want in ((H["crest_ux"], ref["crest_ux"]), (H["crest_uy"], ref["crest_uy"]),

@@ -6,7 +6,7 @@ Assertions and why they are robust:
 * repeatability: two runs with identical settings give the same crack length, peak crest
   displacement and max D to 1e-12 — the whole error-against-run-time study rests on differences
   between runs being caused by the knob, not by run-to-run noise (ARPACK's random start vector
-  once made identical runs differ by 1e-11, docs/decisions.md §7 step 3);
+  once made identical runs differ by 1e-11, docs/model.md §8);
 * g_max: for each alpha the max damage falls when g_max grows tenfold (Eq. 7: every increment
   gives (dg/g_max)^alpha, so a tenfold g_max divides each increment by 10^alpha; a changed path
   cannot undo a factor 10-100);
@@ -24,6 +24,7 @@ pytest.importorskip("ngsolve")
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
+from conftest import run_fast_study  # noqa: E402
 from verification import koyna_studies as ks  # noqa: E402  (the package, as conftest's study)
 
 
@@ -31,7 +32,7 @@ from verification import koyna_studies as ks  # noqa: E402  (the package, as con
 def fast_study(tmp_path_factory):
     out = tmp_path_factory.mktemp("koyna_studies")
     t0 = time.perf_counter()
-    msg = ks.main(fast=True, outdir=out)
+    msg = run_fast_study("koyna_studies", out)
     return out, msg, ks.LAST_STATE, time.perf_counter() - t0
 
 

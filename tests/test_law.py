@@ -1,4 +1,4 @@
-"""Unit and regression tests of the interface law (docs/decisions.md §1)."""
+"""Unit and regression tests of the interface law (docs/law.md)."""
 import math
 
 import numpy as np
@@ -440,7 +440,7 @@ def test_parallel_equals_serial_and_state_not_mutated_and_out_buffers():
 
 def test_fast_loop_code_carries_the_law_damage_values():
     """The fast loop is compiled per kind of law with (alpha, form, F_th = 0) as constants
-    (_kernels.code/_decode, issue #15): they must be the law's own values. Pure Python (no
+    (_kernels.code/_decode): they must be the law's own values. Pure Python (no
     compile); the compiled specialisations are compared with the generic loop of the C ABI
     (runtime parameters) along random walks in test_cabi.py."""
     from interfacelaw import _kernels

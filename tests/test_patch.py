@@ -1,4 +1,4 @@
-"""Patch test of the interface coupling across NON-matching meshes (issue #6): a uniform stress
+"""Patch test of the interface coupling across NON-matching meshes: a uniform stress
 state (normal and shear) in the dam block on the rock block must cross the interface uniformly,
 i.e. every interface point carries exactly the applied traction, for several size ratios.
 

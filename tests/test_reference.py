@@ -1,5 +1,5 @@
 """The numba kernel against the independent numpy reference (interfacelaw/testing.py), and the
-reference's tangent against finite differences. Specification: docs/decisions.md §1."""
+reference's tangent against finite differences. Specification: docs/law.md."""
 from __future__ import annotations
 
 import itertools

@@ -1,4 +1,4 @@
-"""Reservoir (issue #12): scene keys and alias, Westergaard added mass, modal analysis with it."""
+"""Reservoir: scene keys and alias, Westergaard added mass, modal analysis with it."""
 import numpy as np
 import pytest
 

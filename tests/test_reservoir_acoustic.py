@@ -1,4 +1,4 @@
-"""Acoustic reservoir (issue #12): rigid-wall verification problems on a rectangular water mesh
+"""Acoustic reservoir: rigid-wall verification problems on a rectangular water mesh
 (92 m x 300 m, the paper's reservoir) against the analytic solutions, and the incompressible
 acoustic added mass of the Koyna classic section."""
 import math
@@ -50,7 +50,7 @@ def test_compressible_frequency_response(rect, alpha, ratios):
     reflection coefficient alpha) within 2 % (the issue's tolerance; measured <= 0.35 % for
     alpha = 1 below 0.8 omega_1, <= 0.55 % for alpha = 0.5 incl. the resonance).  Not tested:
     alpha = 1 above omega_1 (the plane-wave Sommerfeld far end reflects the first channel
-    mode, 38 % off at 1.2 omega_1, docs/decisions.md Reservoir)."""
+    mode, 38 % off at 1.2 omega_1, docs/reservoir.md §8)."""
     W = ac.water_matrices(rect, C, True, alpha, "radiation")
     for r in ratios:
         Fe = ac.face_force(W, ac.rigid_wall_response(W, RHO, r * W1))
@@ -117,7 +117,7 @@ def test_koyna_f1_ratios(classic_acoustic):
     """f1 of the classic section on a rigid base: empty 3.08 Hz; the full reservoir lowers it,
     Westergaard (7/12 rho H^2, all at the face) more than the incompressible acoustic water
     (0.543 rho H^2, distributed): f1_w < f1_ac < f1_empty, ratios 0.85-0.95 (measured 0.876 and
-    0.919; the literature order for full reservoirs is a 10 % drop, docs/decisions.md)."""
+    0.919; the literature order for full reservoirs is a 10 % drop, docs/reservoir.md §7)."""
     from ngs_driver.fe.modal import k0_from_scene, modal_analysis
     from ngs_driver.fe.model import build_from_scene
 

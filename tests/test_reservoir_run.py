@@ -1,4 +1,4 @@
-"""Reservoir in the time stepping (issue #12): the coupled dam-water system through the condensed
+"""Reservoir in the time stepping: the coupled dam-water system through the condensed
 Newmark solver conserves energy; a run with the acoustic reservoir writes the pressure outputs."""
 import csv
 
@@ -8,7 +8,7 @@ import pytest
 pytest.importorskip("ngsolve")
 
 from interfacelaw import CohesiveParams, ContactParams, InterfaceLaw  # noqa: E402
-from ngs_driver.fe.acoustic_newmark import FluidStepper  # noqa: E402
+from ngs_driver.solve.fluid import FluidStepper  # noqa: E402
 from ngs_driver.fe.model import build_from_scene  # noqa: E402
 from ngs_driver.scene import load_scene  # noqa: E402
 from ngs_driver.solve.newmark import NewmarkSolver  # noqa: E402

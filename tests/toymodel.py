@@ -5,7 +5,7 @@ An elastic block "dam" (width ``Wd`` x height ``Hd``) sits on an elastic block "
 geometrically on ``x in [x0, x0 + Wd]`` (matching nodes), coupled only by the interface law.
 Structured meshes of linear triangles (P1, two per square cell, side ``h``), numpy assembly.
 The rock's bottom is fixed. Returns scipy CSR matrices on the free DOFs and the interface
-operator in the form the solver expects (docs/decisions.md §6):
+operator in the form the solver expects (docs/solver.md §1):
 
     gap of point p:  g_p = (g_N, g_T) = B[2p:2p+2] @ u     (normal from rock into dam = +y)
     interface force: B.T @ (w[:, None] * t).ravel()

@@ -1,4 +1,4 @@
-"""Koyna benchmarks of issue #7 (docs/decisions.md §6, §7): writes verification/out/bench_koyna.json
+"""Koyna benchmarks (docs/solver.md): writes verification/out/bench_koyna.json
 and (through verification/write_benchmarks.py) the Koyna section of BENCHMARKS.md.
 
 1. time per step and Newton iterations against DOFs (mesh.h_coarse = 4, 2, 1 at the default
@@ -18,6 +18,10 @@ and (through verification/write_benchmarks.py) the Koyna section of BENCHMARKS.m
    crest displacement compared with our solver on a linear run (interface law that stays on
    its elastic branch: sigma = tau = 3 GPa, G_I scaled so that k0 is the scene's, no damage,
    no friction) on the lumped-mass model.
+
+Parts 3, 4, 7 and 8 build their runs with ``run.prepare`` (the run's own set-up) on the
+benchmark scene ``BASE_SETS`` (koyna without hydrodynamic water: the dam's solver) and step its
+solver directly; parts 1, 2, 5, 6 run the command itself.
 
 Usage (the environment of the Makefile: NUMBA_CACHE_DIR, OMP_NUM_THREADS=1, ...):
     python verification/bench_koyna.py                 # everything (~10 min on 2 shared cores)
@@ -89,9 +93,17 @@ def loglog_fit(x, y) -> float:
 # ---------------------------------------------------------------------------------------------
 # our model and solvers
 # ---------------------------------------------------------------------------------------------
-def scene(overrides=()):
+# The benchmark scene: the Koyna dam without hydrodynamic water (hydrostatic load only; the
+# solver benchmarks and the OpenSees comparison are about the dam), from START of the record.
+BASE_SETS = ("reservoir.model=none", f"ground_motion.start={START}", f"time.dt={DT}")
+
+
+def scene(overrides=(), n_steps=None, base=BASE_SETS):
+    """The benchmark scene with ``--set`` overrides; n_steps: time.duration = n_steps dt;
+    base=(): the shipped koyna scene itself (the run command's benchmarks)."""
     from ngs_driver.scene import load_scene
-    return load_scene("koyna", list(overrides))
+    dur = [f"time.duration={n_steps * DT!r}"] if n_steps is not None else []
+    return load_scene("koyna", list(base) + dur + list(overrides))
 
 
 def model_of(sc):
@@ -99,73 +111,64 @@ def model_of(sc):
     return build_from_scene(sc)
 
 
-def scene_law(sc):
-    """The run's law at t = 0 (size-scaled to b_ref, as koyna.run does before the static step)."""
-    from ngs_driver.setup import build_law, build_scaling
-    law = build_law(sc)
-    scal = build_scaling(sc, law)
-    return scal.update(law, 0.0) if scal is not None else law
-
-
-def linear_law(sc):
-    """A law that stays on its initial elastic branch with the scene's k0 (no damage, no
-    friction, linear contact): sigma = tau = 3 GPa, G_I scaled by (sigma/sigma_scene)^2."""
-    from interfacelaw import CohesiveParams, ContactParams, InterfaceLaw
+def linear_sets(sc) -> list[str]:
+    """Overrides that keep the scene's joint on its initial elastic branch with the scene's
+    k0 (no damage, no friction, linear contact, no size scaling): sigma = tau = 3 GPa, G_I
+    scaled by (sigma / sigma_scene)^2 (k0 = sigma^2 / (2 lambda_max G_I) unchanged)."""
     i = sc.interface
     f = LINEAR_SIGMA / i.sigma_max
-    coh = CohesiveParams.from_fracture_energy(i.sigma_max * f, i.tau_max * f, i.G_I * f * f,
-                                              i.lambda_max, i.ratio_lTc_lNc)
-    ref = scene_law(sc).cohesive
-    assert abs(coh.k_normal / ref.k_normal - 1) < 1e-9, (coh.k_normal, ref.k_normal)
-    return InterfaceLaw(coh, ContactParams("linear"))
+    return [f"interface.sigma_max={i.sigma_max * f!r}", f"interface.tau_max={i.tau_max * f!r}",
+            f"interface.G_I={i.G_I * f * f!r}", "interface.contact=linear",
+            "interface.friction=0.0", "interface.damage=false", "interface.scaling=false"]
 
 
-def rayleigh(model, sc):
-    from ngs_driver.fe.modal import damping_from_modes, modal_analysis
-    law = scene_law(sc)
-    modal = modal_analysis(model, 6, law.cohesive.k_normal, law.cohesive.k_tangential)
-    d = sc.damping
-    damp = damping_from_modes(modal, d.ratio, d.modes, d.frequencies or None)
-    return float(f"{damp['a0']:.10g}"), float(f"{damp['a1']:.10g}")
+_SCRATCH = None
 
 
-def loads(model, sc, n_steps, start=START):
-    """(f_static, list of f_k for k = 0..n_steps, ax, ay) as in koyna.run."""
-    from ngs_driver.setup import load_ground_motion
-    gm = load_ground_motion(sc)
-    times = DT * np.arange(n_steps + 1)
-    ax, ay = gm.at(start + times)
-    Mrx, Mry = model.M @ model.r_x, model.M @ model.r_y
-    fs = model.f_gravity + model.f_water
-    return fs, (lambda k: fs - Mrx * ax[k] - Mry * ay[k]), np.asarray(ax), np.asarray(ay)
+def analysis(sc, model=None):
+    """The run's own set-up (``run.prepare``; its folder a scratch one, nothing written but
+    the folder) with the static state solved. The benchmarks step ``a.solver`` directly with
+    ``load(a)``: the solver alone, the joints' laws frozen at their start (b_ref)."""
+    global _SCRATCH
+    from ngs_driver.run import prepare
+    if _SCRATCH is None:
+        _SCRATCH = pathlib.Path(tempfile.mkdtemp(prefix="bench_koyna_"))
+    out = pathlib.Path(tempfile.mkdtemp(dir=_SCRATCH))
+    a = prepare(sc, out, model=model, plots=False, progress=False, log=lambda *x, **k: None)
+    a.static()
+    return a
 
 
-def make_solver(model, law, a0a1, method="condensed", **kw):
+def load(a):
+    """f(k): the run's load of step k (``run.analysis.seismic_load``)."""
+    from ngs_driver.run.analysis import seismic_load
+    return lambda k: seismic_load(a.f_static, a.Mrx, a.Mry, a.ax[k], a.ay[k])
+
+
+def a0a1_of(a) -> tuple[float, float]:
+    return a.damping["a0"], a.damping["a1"]
+
+
+def variant(s, method="condensed"):
+    """A solver on the same matrices, law and options as ``s`` with another Newton method,
+    started from s's committed state."""
     from ngs_driver.solve.newmark import NewmarkSolver
-    a0, a1 = a0a1
-    C = (a0 * model.M + a1 * model.K).tocsr()
-    return NewmarkSolver(model.K, model.M, C, model.interface.B, model.interface.w, law,
-                         dt=DT, method=method, tol_residual=1e-8, max_iter=30, min_dt=1e-6,
-                         **kw)
-
-
-def start_solver(s, fs, fk, zero_accel=False):
-    s.static(fs)
-    if zero_accel:                    # as OpenSees: v = a = 0 after the static analysis
-        s.set_initial(u=s.u.copy(), v=np.zeros_like(s.u), a=np.zeros_like(s.u), f=fk(0))
-    else:
-        s.initial_acceleration(fk(0))
+    v = NewmarkSolver(s.K, s.M, s.C, s.B, s.w, s.law, dt=s.dt, method=method,
+                      tol_residual=s.tol_residual, max_iter=s.max_iter, min_dt=s.min_dt)
+    v.state = s.state
+    v.set_initial(u=s.u.copy(), v=s.v.copy(), a=s.a.copy(), f=s.f.copy())
+    v.time = s.time
+    return v
 
 
 # ---------------------------------------------------------------------------------------------
-# part 1: scaling with DOFs and with interface points (koyna.run, short strong-part runs)
+# part 1: scaling with DOFs and with interface points (the run command's own run(), short runs)
 # ---------------------------------------------------------------------------------------------
 def short_run(model, sc, outdir) -> dict:
-    from ngs_driver.run.dam import run
+    from ngs_driver.post.files import read_csv
+    from ngs_driver.run import run
     s = run(sc, outdir, model=model, plots=False, progress=False)
-    lines = [ln for ln in (pathlib.Path(outdir) / "timeseries.csv").read_text().splitlines()
-             if ln and not ln.startswith("#")]
-    ts = np.genfromtxt(lines, delimiter=",", names=True)
+    ts = read_csv(pathlib.Path(outdir) / "timeseries.csv")
     w = np.asarray(ts["wall"])
     return {"per_step_median": float(np.median(w)), "per_step_mean": float(np.mean(w)),
             "per_step_median_after_first": float(np.median(w[1:])),
@@ -200,7 +203,7 @@ def part1(res, repeats=3, duration=0.3, quick=False):
         for name, rows in series.items():
             out["series"][name] = []
             for label, ov in rows:
-                sc = scene(base + ov)
+                sc = scene(base + ov, base=())
                 key = tuple(ov)
                 t0 = time.perf_counter()
                 if key not in cache:
@@ -332,23 +335,16 @@ def part2(res, alphas=(2.0,), full_dir=None, extra_set=("time.stop_slip=0",)):
 # ---------------------------------------------------------------------------------------------
 # part 3: condensed vs full Newton on the default mesh
 # ---------------------------------------------------------------------------------------------
-def part3(res, warm=50, n_full=5, n_cond=50, model=None, a0a1=None):
-    sc = scene()
+def part3(res, warm=50, n_full=5, n_cond=50, model=None):
+    sc = scene(n_steps=warm + n_cond + 1)
     m = model if model is not None else model_of(sc)
-    a0a1 = a0a1 or rayleigh(m, sc)
-    law = scene_law(sc)
-    fs, fk, _, _ = loads(m, sc, warm + n_cond + 1)
+    a = analysis(sc, m)
+    fk = load(a)
     la0 = loadavg()
-    sc_ = make_solver(m, law, a0a1, "condensed")
-    start_solver(sc_, fs, fk)
+    sc_ = a.solver
     for k in range(1, warm + 1):
         sc_.step(fk(k))
-    snap = dict(u=sc_.u.copy(), v=sc_.v.copy(), a=sc_.a.copy(), f=sc_.f.copy())
-    st = sc_.state
-    sf = make_solver(m, law, a0a1, "full")
-    sf.state = st
-    sf.set_initial(**snap)
-    sf.time = sc_.time
+    sf = variant(sc_, "full")
     tc, ic, tf_, if_ = [], [], [], []
     for k in range(warm + 1, warm + n_full + 1):
         r = sf.step(fk(k))
@@ -517,11 +513,14 @@ def _analysis(ops, system, static):
         ops.analysis("Transient")
 
 
-def ours_linear(model, sc, a0a1, n, zero_accel=True):
-    law = linear_law(sc)
-    fs, fk, ax, ay = loads(model, sc, n)
-    s = make_solver(model, law, a0a1, "condensed")
-    start_solver(s, fs, fk, zero_accel=zero_accel)
+def ours_linear(model, sets, n, zero_accel=True):
+    """n steps of the linear run (``linear_sets``) of the benchmark scene with ``sets`` on
+    ``model``; zero_accel: v = a = 0 after the static state, as OpenSees starts. Returns
+    (crest u_x per step, step walls, max active points, solver, analysis)."""
+    a = analysis(scene(list(sets) + linear_sets(scene(sets)), n_steps=n), model)
+    s, fk = a.solver, load(a)
+    if zero_accel:                    # as OpenSees: v = a = 0 after the static analysis
+        s.set_initial(u=s.u.copy(), v=np.zeros_like(s.u), a=np.zeros_like(s.u), f=fk(0))
     cx = model.crest_dofs[0]
     ux, walls, act = [s.u[cx]], [], 0
     for k in range(1, n + 1):
@@ -529,11 +528,11 @@ def ours_linear(model, sc, a0a1, n, zero_accel=True):
         walls.append(r.wall)
         ux.append(s.u[cx])
         act = max(act, r.n_active)
-    return np.asarray(ux), np.asarray(walls), act, s
+    return np.asarray(ux), np.asarray(walls), act, s, a
 
 
 def part4(res, n=500, systems=("BandSPD", "ProfileSPD", "SparseSYM", "UmfPack"),
-          model_c=None, a0a1=None):
+          model_c=None):
     out = res.setdefault("part4", {})
     t0 = time.perf_counter()
     try:
@@ -547,19 +546,23 @@ def part4(res, n=500, systems=("BandSPD", "ProfileSPD", "SparseSYM", "UmfPack"),
                           "on Linux' unless the BLAS/LAPACK/gfortran libraries bundled in "
                           "site-packages/openseespylinux/lib are loaded with "
                           "ctypes.CDLL(..., RTLD_GLOBAL) first")
-    sc = scene()
-    scl = scene(["mesh.lumped_mass=true"])
+    sc = scene(n_steps=n)
     mc = model_c if model_c is not None else model_of(sc)
-    ml = model_of(scl)
+    # the consistent-mass model's Rayleigh frequencies (hence a0, a1) and k0 for both models
+    # and OpenSees
+    ac = analysis(sc, mc)
+    a0a1 = a0a1_of(ac)
+    k0n, k0t = ac.reference["k_normal"], ac.reference["k_tangential"]
+    fr = [f"damping.frequencies=[{ac.damping['f_a']!r}, {ac.damping['f_b']!r}]"]
+    lumped = ["mesh.lumped_mass=true"] + fr
+    ml = model_of(scene(lumped, n_steps=n))
     assert ml.nfree == mc.nfree and ml.interface.npts == mc.interface.npts
-    a0a1 = a0a1 or rayleigh(mc, sc)
-    law = scene_law(sc)
-    k0n, k0t = law.cohesive.k_normal, law.cohesive.k_tangential
-    fs, fk, ax, ay = loads(ml, scl, n)
     # ours, linear (lumped mass: the same mass matrix as tri31's), and on the default model
     la0 = loadavg()
-    ux_l, w_l, act_l, s_l = ours_linear(ml, scl, a0a1, n)
-    _, w_c, act_c, _ = ours_linear(mc, sc, a0a1, n, zero_accel=False)
+    ux_l, w_l, act_l, s_l, al = ours_linear(ml, lumped, n)
+    assert a0a1_of(al) == a0a1
+    _, w_c, act_c, _, _ = ours_linear(mc, fr, n, zero_accel=False)
+    scl, fs, ax, ay = al.scene, al.f_static, al.ax[:n + 1], al.ay[:n + 1]
     out.update({"n_steps": n, "start": START, "nfree": int(ml.nfree),
                 "npts": int(ml.interface.npts), "k0": [k0n, k0t], "a0a1": list(a0a1),
                 "ours_linear_lumped_ms": 1e3 * float(np.median(w_l)),
@@ -642,9 +645,9 @@ def ratios(res):
 
 
 # ---------------------------------------------------------------------------------------------
-# issue #15 (SPEED), targets 2-5
+# speed targets 2-5 (parts 5-8)
 # ---------------------------------------------------------------------------------------------
-# the scene of issue #15 (filed before the koyna scene's reservoir became "acoustic"): the dam
+# the scene of the speed targets (set before the koyna scene's reservoir became "acoustic"): the dam
 # without the water domain, so that before/after and the issue's figures compare
 NL_SET = ("ground_motion.scale=0.2", "reservoir.model=none")
 LIN_SET = ("ground_motion.scale=0.001", "interface.damage=false", "reservoir.model=none")
@@ -670,9 +673,8 @@ def cli_run(sets, tag) -> dict:
         return d
     d.update(parse_time_v(tf.read_text()))
     sm = json.loads((od / "summary.json").read_text())
-    lines = [ln for ln in (od / "timeseries.csv").read_text().splitlines()
-             if ln and not ln.startswith("#")]
-    ts = np.genfromtxt(lines, delimiter=",", names=True)
+    from ngs_driver.post.files import read_csv
+    ts = read_csv(od / "timeseries.csv")
     d.update({"timings": sm["timings"], "solver_totals": sm["solver_totals"],
               "n_steps": sm["n_steps"], "steps_done": int(len(ts["wall"])),
               "stopped": sm.get("stopped"),
@@ -739,15 +741,13 @@ def part6(res):
     save(res)
 
 
-def step_pair(m, sc, a0a1, n_warm=10, n_meas=30, start=START):
+def step_pair(m, sets, n_warm=10, n_meas=30):
     """Nonlinear (scene law, the scene's record scale) and linear (elastic-branch law) steps of
     the same model, interleaved: per-step medians [s], Newton iterations, active points."""
-    law = scene_law(sc)
-    fs, fk, _, _ = loads(m, sc, n_warm + n_meas + 1, start=start)
-    sn = make_solver(m, law, a0a1)
-    sl = make_solver(m, linear_law(sc), a0a1)
-    start_solver(sn, fs, fk)
-    start_solver(sl, fs, fk)
+    n = n_warm + n_meas + 1
+    an = analysis(scene(sets, n_steps=n), m)
+    al = analysis(scene(list(sets) + linear_sets(an.scene), n_steps=n), m)
+    sn, sl, fk = an.solver, al.solver, load(an)
     for k in range(1, n_warm + 1):
         sn.step(fk(k))
         sl.step(fk(k))
@@ -783,14 +783,14 @@ def part7(res, quick=False, n_meas=20):
     for name, rows in series.items():
         out["series"][name] = []
         for ov in rows:
-            sc = scene(base + ov + (["mesh.h_coarse=10.0", "mesh.h_interface=5.0",
-                                     "mesh.h_heel=1.0", "mesh.heel_zone=2.0"] if quick else []))
+            sets = base + ov + (["mesh.h_coarse=10.0", "mesh.h_interface=5.0",
+                                 "mesh.h_heel=1.0", "mesh.heel_zone=2.0"] if quick else [])
+            sc = scene(sets)
             t0 = time.perf_counter()
             m = model_of(sc)
             tb = time.perf_counter() - t0
-            a0a1 = rayleigh(m, sc)
             la0 = loadavg()
-            row = step_pair(m, sc, a0a1, n_meas=n_meas if not quick else 3,
+            row = step_pair(m, sets, n_meas=n_meas if not quick else 3,
                             n_warm=10 if not quick else 2)
             row.update({"overrides": ov, "nfree": int(m.nfree), "npts": int(m.interface.npts),
                         "build_s": tb, "loadavg": [la0, loadavg()]})
@@ -817,16 +817,12 @@ def part8(res, start=START, n=200):
     """Target 2 per step: the 0.2x step (scene law) against the step of the issue's elastic
     run (record x 0.001, interface.damage = false), same model, same record times, interleaved;
     medians of the CPU time of this process and of the wall time."""
-    scn = scene(list(NL_SET))
-    scl = scene(list(LIN_SET))
+    at = [f"ground_motion.start={start!r}"]
+    scn = scene(list(NL_SET) + at, n_steps=n + 30)
     m = model_of(scn)
-    a0a1 = rayleigh(m, scn)
-    fsn, fkn, _, _ = loads(m, scn, n + 30, start=start)
-    fsl, fkl, _, _ = loads(m, scl, n + 30, start=start)
-    sn = make_solver(m, scene_law(scn), a0a1)
-    sl = make_solver(m, scene_law(scl), a0a1)
-    start_solver(sn, fsn, fkn)
-    start_solver(sl, fsl, fkl)
+    an = analysis(scn, m)
+    al = analysis(scene(list(LIN_SET) + at, n_steps=n + 30), m)
+    sn, sl, fkn, fkl = an.solver, al.solver, load(an), load(al)
     for k in range(1, 11):
         sn.step(fkn(k))
         sl.step(fkl(k))
@@ -876,7 +872,7 @@ def plot7(res):
         ax.set_ylabel("CPU ms per step (median)")
         ax.grid(True, which="both", alpha=0.3)
         ax.legend()
-    fig.suptitle("Koyna: time per implicit step (issue #15, target 3)")
+    fig.suptitle("Koyna: time per implicit step (target 3)")
     fig.tight_layout()
     OUT.mkdir(parents=True, exist_ok=True)
     fig.savefig(OUT / "bench15_scaling.png", dpi=110)
@@ -887,8 +883,9 @@ def plot7(res):
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--parts", default="1,2,3,4",
-                    help="1-4: issue #7; 5: #15 target 2 + memory, 6: #15 target 5 (full "
-                         "intensity), 7: #15 target 3 (scaling), 8: #15 target 2 per step "
+                    help="1-4: time per step, full run, condensed vs full Newton, OpenSees; 5: "
+                         "speed target 2 + memory, 6: target 5 (full intensity), 7: target 3 "
+                         "(scaling), 8: target 2 per step "
                          "(CPU time, interleaved)")
     ap.add_argument("--repeats", type=int, default=3)
     ap.add_argument("--alpha1", action="store_true", help="also the full run with alpha = 1")
@@ -913,13 +910,11 @@ def main(argv=None) -> int:
             part2(res, (2.0,), None, extra_set=())
     shared = {}
     if 3 in parts or 4 in parts:
-        sc = scene()
-        shared["model"] = model_of(sc)
-        shared["a0a1"] = rayleigh(shared["model"], sc)
+        shared["model"] = model_of(scene())
     if 3 in parts:
-        part3(res, model=shared["model"], a0a1=shared["a0a1"])
+        part3(res, model=shared["model"])
     if 4 in parts:
-        part4(res, n=a.opensees_steps, model_c=shared["model"], a0a1=shared["a0a1"])
+        part4(res, n=a.opensees_steps, model_c=shared["model"])
     if 1 in parts:
         part1(res, repeats=a.repeats)
     if 5 in parts:

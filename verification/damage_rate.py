@@ -1,4 +1,4 @@
-"""Material-point study of the three readings of the damage law, Eq. 7 (issue #17).
+"""Material-point study of the three readings of the damage law, Eq. 7.
 
 One interface point (the paper's parameters, rough contact, friction 0.3) is opened and closed in
 mode I through N sinusoidal cycles g_N(t) = A (1 − cos 2π f t)/2 (A = 0.1 l_Nc: elastic, half the
@@ -6,7 +6,7 @@ peak opening), sampled with n equal time steps per cycle, and the damage D at th
 recorded for the forms
 
 * ``paper``     ΔD = (Δg⁺/g_max)^α B per step (Eq. 7 as a per-step increment, the default);
-* ``objective`` D = (p/g_max)^α, dp = B dg⁺ (docs/decisions.md §3 D4);
+* ``objective`` D = (p/g_max)^α, dp = B dg⁺ (docs/law.md (damage forms));
 * ``rate``      ΔD = (Δg⁺/g_max)^α (Δt/t_ref)^(1−α) B (Eq. 7 as a rate, docs §1.5),
 
 and α = 1, 2 (β = 0, F_th = 0, so B = 1 while opening), against n at a fixed frequency and
@@ -197,7 +197,7 @@ def main(fast: bool = False, outdir=None) -> dict:
     text = (
         "# Eq. 7 read three ways: which damage depends on the step, which on the rate\n\n"
         "Command: `python verification/damage_rate.py" + (" --fast" if fast else "") + "` "
-        f"({wall:.1f} s). Issue #17, docs/decisions.md §1.5.\n\n"
+        f"({wall:.1f} s). docs/law.md (damage forms).\n\n"
         f"One point of the paper's interface (σ = τ = 3 MPa, G_I = 250 N/m, λ_max = 0.2, "
         f"l_Nc = {COH.l_Nc:.4g} m; rough contact, friction 0.3), mode I, {cycles} cycles "
         f"g_N(t) = A (1 − cos 2πft)/2 with A = 0.1 l_Nc = {AMP:.3g} m (elastic), sampled with n "

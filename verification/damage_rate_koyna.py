@@ -1,4 +1,4 @@
-"""Koyna study of the three readings of the damage law, Eq. 7 (issue #17, DAMAGE-RATE).
+"""Koyna study of the three readings of the damage law, Eq. 7 (DAMAGE-RATE).
 
 Which combination of damage form (``interface.damage_form`` = paper | objective | rate), g_max
 and t_ref reproduces the paper's three §5 statements on the Koyna scene, and at which record
@@ -10,7 +10,7 @@ intensity (``ground_motion.scale`` of the shipped SYNTHETIC record, 0.49 g horiz
 
 A *combination* is (form, g_max, t_ref, scale); it reproduces the paper when its alpha = 2 run
 meets S1 and S2 and its alpha = 1 run meets S3.  For alpha = 1 the three forms are the same law
-(docs/decisions.md §1.5: the rate form takes the paper's code path, the objective form
+(docs/law.md §6: the rate form takes the paper's code path, the objective form
 D = p/g_max is the paper's sum), so one alpha = 1 run per (g_max, scale) serves all forms
 (the fast mode checks the identity on the dam).
 
@@ -28,7 +28,8 @@ Each run is one command line (printed in the report, run as a subprocess, ``jobs
       --set interface.alpha=2.0 --set interface.damage_form=rate --set interface.t_ref=1.0 \
       --set interface.g_max=0.006666666666666667 --out verification/out/damage_rate_koyna/runs/TAG
 
-A run whose summary.json holds the same resolved scene is reused.  ``main(fast=False,
+Runs go through the one sweep-with-resume (``ngs_driver.studies.sweep``): a run whose
+result.json holds the same scene hash is reused.  ``main(fast=False,
 outdir=None) -> dict`` writes ``damage_rate_koyna.md`` (table + commands) and
 ``damage_rate_koyna.png`` (D(x) snapshots of the best combination beside the paper's
 description) into ``outdir`` (default verification/out/damage_rate_koyna) and returns the
@@ -43,12 +44,9 @@ interfacelaw + ngs_driver) instead of this checkout.
 from __future__ import annotations
 
 import argparse
-import concurrent.futures as cf
 import json
-import os
 import pathlib
 import shlex
-import subprocess
 import sys
 import time
 
@@ -57,6 +55,10 @@ import numpy as np
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 if str(ROOT) not in sys.path:
     sys.path.insert(0, str(ROOT))
+
+from ngs_driver.post.files import read_csv  # noqa: E402
+from ngs_driver.studies.sweep import (Sweep, command, overrides_of, run_scene,  # noqa: E402
+                                      scene_hash)
 
 L_NC = 2 * 250.0 / 3.0e6            # l_Nc = 2 G_I / sigma_max of the paper's interface [m]
 G_DEFAULT = 6.6667e-4               # the koyna scene's g_max (4 l_Nc, rounded)
@@ -130,52 +132,11 @@ LAST: dict = {}
 
 
 # ---------------------------------------------------------------------------------------------
-def _val(v):
-    return repr(v) if isinstance(v, float) else str(v)
-
-
-def command(scene, sets, out, python="python"):
-    args = [python, "-m", "ngs_driver", "run", scene]
-    for k, v in sorted(sets.items()):
-        args += ["--set", f"{k}={_val(v)}"]
-    return args + ["--out", str(out), "--quiet"]
-
-
-def _same_scene(summary, scene, sets) -> bool:
-    """The run's resolved scene equals the one asked for, on every key the run recorded (a key
-    added to the schema later, with its default, does not force a rerun)."""
-    from ngs_driver.scene import load_scene
-    want = json.loads(json.dumps(load_scene(scene, [f"{k}={_val(v)}" for k, v in
-                                                    sorted(sets.items())]).to_dict()))
-    have = dict(summary.get("scene", {}))
-    want.pop("output", None)
-    have.pop("output", None)
-
-    def sub(h, w):
-        if isinstance(h, dict) and isinstance(w, dict):
-            return all(k in w and sub(v, w[k]) for k, v in h.items())
-        return h == w
-    return bool(have) and sub(have, want)
-
-
-def read_timeseries(path) -> dict:
-    lines = [ln for ln in pathlib.Path(path).read_text().splitlines()
-             if ln.strip() and not ln.startswith("#")]
-    names = lines[0].split(",")
-    data = np.array([[float(x) for x in ln.split(",")] for ln in lines[1:]]).reshape(-1, len(names))
-    return {n: data[:, i] for i, n in enumerate(names)}
-
-
 def read_profiles(path):
     """damage_profiles.csv -> x, {t: D(x)} (the snapshots)."""
-    lines = [ln for ln in pathlib.Path(path).read_text().splitlines()
-             if ln.strip() and not ln.startswith("#")]
-    names = lines[0].split(",")
-    data = np.array([[float(x) for x in ln.split(",")] for ln in lines[1:]]).reshape(-1, len(names))
-    x = data[:, names.index("x")]
-    snaps = {float(n.split("=")[1]): data[:, i] for i, n in enumerate(names)
-             if n.startswith("D_t=")}
-    return x, snaps
+    cols = read_csv(path)
+    snaps = {float(n.split("=")[1]): v for n, v in cols.items() if n.startswith("D_t=")}
+    return cols["x"], snaps
 
 
 def read_run(d: pathlib.Path, c: dict, duration: float) -> dict:
@@ -205,57 +166,48 @@ def read_run(d: pathlib.Path, c: dict, duration: float) -> dict:
 
 
 def run_all(cfg, outdir: pathlib.Path, jobs=2, code=None, log=print, report_only=False):
-    runs = outdir / "runs"
-    runs.mkdir(parents=True, exist_ok=True)
-    env = dict(os.environ)
-    for k, v in (("OMP_NUM_THREADS", "1"), ("OPENBLAS_NUM_THREADS", "1"), ("MPLBACKEND", "Agg"),
-                 ("NUMBA_CACHE_DIR", str(ROOT / ".numba_cache"))):
-        env.setdefault(k, v)
-    env["PYTHONPATH"] = str(code or ROOT) + os.pathsep + env.get("PYTHONPATH", "")
+    """Every case through the one sweep-with-resume (``ngs_driver.studies.sweep``): the run
+    command in a subprocess per case (``jobs`` at a time; in-process for the fast form) into
+    ``outdir/runs/<tag>``, reused while its scene hash is the same. report_only: the finished
+    runs only. Returns {tag: record}."""
+    from ngs_driver.scene import load_scene
     duration = cfg["window"].get("time.duration")
     if duration is None:
-        from ngs_driver.scene import load_scene
         duration = load_scene(cfg["scene"]).time.duration
-
-    def one(c):
+    specs, cases = [], {}
+    for c in cfg["cases"]:
         sets = dict(cfg["window"], **c["sets"])
-        d = runs / c["tag"]
-        cmd = command(cfg["scene"], sets, d, sys.executable)
-        c = dict(c, command=shlex.join(["python"] + cmd[1:-3] + ["--out", f"runs/{c['tag']}"]))
-        p = d / "summary.json"
-        reuse = False
-        if p.exists():
-            try:
-                reuse = _same_scene(json.loads(p.read_text()), cfg["scene"], sets)
-            except (OSError, ValueError, KeyError):   # unreadable or foreign summary: rerun
-                reuse = False
-        t0 = time.perf_counter()
-        if not reuse and report_only:
-            return None
-        if not reuse and cfg.get("in_process"):
-            from ngs_driver.run.dam import run
-            from ngs_driver.scene import load_scene
-            run(load_scene(cfg["scene"], [f"{k}={_val(v)}" for k, v in sorted(sets.items())]),
-                str(d), progress=False, plots=False, log=lambda *a, **k: None)
-        elif not reuse:
-            with open(runs / f"{c['tag']}.log", "w") as fh:
-                q = subprocess.run(cmd, stdout=fh, stderr=subprocess.STDOUT,
-                                   cwd=str(code or ROOT), env=env, check=False)
-            if q.returncode != 0:
-                raise RuntimeError(f"run {c['tag']} failed (exit {q.returncode}); "
-                                   f"see {runs / (c['tag'] + '.log')}")
-        rec = read_run(d, c, float(sets.get("time.duration", duration)))
-        rec["reused"] = reuse
-        log(f"[damage_rate_koyna] {c['tag']}: max D_heel {rec['max_D_heel']:.4g}, max D "
-            f"{rec['max_D']:.4g}, L {rec['L_final']:.3f}/{rec['L_max']:.3f} m"
-            + (" (reused)" if reuse else f" ({time.perf_counter() - t0:.0f} s)"))
-        return rec
+        ov = overrides_of(sets)
+        cmd = command(cfg["scene"], ov, outdir / "runs" / c["tag"], sys.executable)
+        cases[c["tag"]] = (dict(c, command=shlex.join(["python"] + cmd[1:-3]
+                                                      + ["--out", f"runs/{c['tag']}"])),
+                           float(sets.get("time.duration", duration)))
+        specs.append({"id": c["tag"], "scene_name": cfg["scene"], "overrides": ov,
+                      "scene_hash": scene_hash(load_scene(cfg["scene"], ov)),
+                      "in_process": bool(cfg.get("in_process")), "code": code})
+    recs, t0 = {}, time.perf_counter()
 
-    if cfg.get("in_process"):
-        jobs = 1
-    with cf.ThreadPoolExecutor(max(1, int(jobs))) as ex:
-        recs = list(ex.map(one, cfg["cases"]))
-    return {r["tag"]: r for r in recs if r is not None}
+    def record(spec, reused):
+        c, dur = cases[spec["id"]]
+        rec = read_run(outdir / "runs" / spec["id"], c, dur)
+        rec["reused"] = reused
+        recs[spec["id"]] = rec
+        log(f"[damage_rate_koyna] {spec['id']}: max D_heel {rec['max_D_heel']:.4g}, max D "
+            f"{rec['max_D']:.4g}, L {rec['L_final']:.3f}/{rec['L_max']:.3f} m"
+            + (" (reused)" if reused else f" ({time.perf_counter() - t0:.0f} s)"))
+
+    sw = Sweep(outdir, run_scene, jobs=1 if cfg.get("in_process") else jobs,
+               on_result=lambda spec, r: record(spec, False))
+    done, pending = sw.plan(specs)
+    for spec in specs:
+        if spec["id"] in done:
+            record(spec, True)
+    if not report_only:
+        res = sw.run(pending)
+        if res["errors"]:
+            tag, msg = next(iter(res["errors"].items()))
+            raise RuntimeError(f"run {tag}: {msg}")
+    return {s["id"]: recs[s["id"]] for s in specs if s["id"] in recs}
 
 
 def combinations(recs: dict) -> list[dict]:
@@ -319,7 +271,7 @@ def objectivity(recs: dict) -> list[dict]:
                "dt_check": float(r["sets"]["time.dt"]), "dt_base": 0.002,
                "t_D1_check": r["t_D1"], "t_D1_base": q["t_D1"]}
         for name, rr in (("check", r), ("base", q)):
-            ts = read_timeseries(pathlib.Path(rr["dir"]) / "timeseries.csv")
+            ts = read_csv(pathlib.Path(rr["dir"]) / "timeseries.csv")
             i = int(np.argmin(np.abs(ts["t"] - t_end)))
             row[f"D_heel_{name}"] = float(ts["D_heel"][i])
             row[f"max_D_{name}"] = float(ts["max_D"][i])
@@ -332,7 +284,7 @@ def objectivity(recs: dict) -> list[dict]:
 def write_report(cfg, recs, combos, path: pathlib.Path, best, obj=()):
     res = sorted({r["reservoir"] for r in recs.values()})
     lines = [
-        (f"# Koyna: damage form x alpha x g_max x t_ref (issue #17) — scene `{cfg['scene']}`, "
+        (f"# Koyna: damage form x alpha x g_max x t_ref — scene `{cfg['scene']}`, "
         f"reservoir {', '.join(res)}, SYNTHETIC record"),
         "",
         ("Per run (all from summary.json): max D_heel, t at which D_heel = 1, heel crack final / "
@@ -414,7 +366,7 @@ def plot_best(best, path: pathlib.Path):
     for r, ls in ((a2, "-"), (a1, "--")):
         if r is None:
             continue
-        ts = read_timeseries(pathlib.Path(r["dir"]) / "timeseries.csv")
+        ts = read_csv(pathlib.Path(r["dir"]) / "timeseries.csv")
         ax.plot(ts["t"], ts["D_heel"], ls, label=f"D_heel, α = {r['alpha']:g}")
         ax.plot(ts["t"], ts["crack_length_heel"], ls, label=f"heel crack [m], α = {r['alpha']:g}")
     ax.axvline(PAPER["t_D1"], color="k", lw=0.8, ls=":")

@@ -1,5 +1,5 @@
 """DCB (mode I) error against run time: Gauss points per segment n and interface mesh size
-h_int (issue #6, "Error against run time").  ``main(fast, outdir)`` writes
+h_int ("Error against run time").  ``main(fast, outdir)`` writes
 dcb_n.png, dcb_h.png, dcb_oscillation.png and dcb.md into ``outdir``.
 
 Errors of each run against (i) the corrected beam theory + LEFM (Kanninen root rotation

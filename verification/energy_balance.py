@@ -1,4 +1,4 @@
-"""Energy balance of dam runs against the time step, with run time (issue #11; decisions §10.3).
+"""Energy balance of dam runs against the time step, with run time (decisions §10.3).
 
 The budget of ``run.energy`` closes exactly for the bulk (average-acceleration Newmark) and up
 to the trapezoid error of the interface work for the joints; this study measures the largest
@@ -20,7 +20,7 @@ ROOT = pathlib.Path(__file__).resolve().parents[1]
 if str(ROOT) not in sys.path:
     sys.path.insert(0, str(ROOT))
 
-from ngs_driver.out.files import atomic_write_bytes, atomic_write_text  # noqa: E402
+from ngs_driver.post.files import atomic_write_bytes, atomic_write_text  # noqa: E402
 from ngs_driver.run.dam import run  # noqa: E402
 from ngs_driver.scene import load_scene  # noqa: E402
 
@@ -55,7 +55,7 @@ def main(fast: bool = False, outdir=None) -> dict:
     lines = ["## Energy balance against the time step (koyna_smoke, 0.1 s at 3 x the strong "
              "phase)", "",
              "Residual = max |W_ext - (E_kin + E_bulk + E_damp + E_stored + E_diss + "
-             "E_scaling)| / max |W_ext| over the run (docs/decisions.md §10.3).", "",
+             "E_scaling)| / max |W_ext| over the run (docs/solver.md (energy budget)).", "",
              "| run | dt [s] | residual / input work | E_scaling / input work | cuts | "
              "debonded [m] | wall [s] |", "|---|---|---|---|---|---|---|"]
     for k, r in rows.items():

@@ -2,7 +2,7 @@
 
     python verification/ground_motion_plot.py [--fast] [--out verification/out/ground_motion.png]
 
-The default record is SYNTHETIC (see docs/decisions.md §5); the figure says so.
+The default record is SYNTHETIC (see docs/model.md §9.1); the figure says so.
 ``--fast`` uses fewer spectral periods and a lower resolution (for the test-suite).
 """
 

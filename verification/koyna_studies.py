@@ -1,4 +1,4 @@
-"""Koyna run: error against run time (issue #6) — intensity sweep, Gauss points per segment,
+"""Koyna run: error against run time — intensity sweep, Gauss points per segment,
 time step, g_max sensitivity.  ``main(fast, outdir)`` writes ``koyna_studies.md`` (tables),
 ``koyna_studies_summary.txt`` (prose, recommended defaults) and PNGs into ``outdir``.
 
@@ -8,7 +8,7 @@ convergence study of "crack length at the end" is meaningless there (70 m for ev
 The sweep (ground_motion.scale) gives this model's fragility-like curve under this record, and the
 studies are run at the largest scale whose crack stays partial (not the whole base, no sliding).
 
-Quantities per run (from ``summary.json`` / ``timeseries.csv`` of ``ngs_driver.koyna.run``):
+Quantities per run (from ``summary.json`` / ``timeseries.csv`` of ``ngs_driver.run.run``):
   wall         timings.dynamic [s] (the time-stepping loop only; build/modal/static excluded)
   L_end        crack length at the end, contiguous debonded length from the heel [m]
   L_max        its maximum over the window; L_tot: total debonded length at the end
@@ -18,8 +18,9 @@ Quantities per run (from ``summary.json`` / ``timeseries.csv`` of ``ngs_driver.k
 Errors against the study's reference run: |L_end - L_end,ref| in metres (0 is drawn at 1e-4 m
 on the log plots), |ux_peak - ux_peak,ref| / ux_peak,ref.
 
-Runs are executed as subprocesses (``--jobs`` at a time), each into
-``outdir/koyna_studies_runs/<tag>``; a run whose summary.json exists with the same scene is
+Runs go through the one sweep-with-resume (``ngs_driver.studies.sweep``): each the run command
+in a subprocess (``--jobs`` at a time; in-process for --fast) into
+``outdir/koyna_studies/runs/<tag>``; a run whose result.json holds the same scene hash is
 reused (so an interrupted study resumes).  The tables are rewritten after every run.
 
   python verification/koyna_studies.py [--fast] [--jobs 2] [--out DIR]
@@ -27,14 +28,10 @@ reused (so an interrupted study resumes).  The tables are rewritten after every 
 from __future__ import annotations
 
 import argparse
-import concurrent.futures as cf
 import json
 import math
-import os
 import pathlib
-import subprocess
 import sys
-import threading
 import time
 
 import numpy as np
@@ -43,13 +40,18 @@ ROOT = pathlib.Path(__file__).resolve().parents[1]
 if str(ROOT) not in sys.path:
     sys.path.insert(0, str(ROOT))
 
+from ngs_driver.post.files import read_csv  # noqa: E402
+from ngs_driver.studies.sweep import Sweep, overrides_of, run_scene, scene_hash  # noqa: E402
+
 L_NC = 2 * 250.0 / 3.0e6            # l_Nc = 2 G_I / sigma_max of the reference parameters [m]
 
 # ---- the full study ------------------------------------------------------------------------
 FULL = dict(
     scene="koyna",
     window={"time.duration": 3.0, "ground_motion.start": 0.0},          # intensity sweep
-    study_window={"time.duration": 1.5, "ground_motion.start": 0.0},    # convergence studies
+    # convergence studies: 1.504 s is a whole number of steps of every dt below (188 of 8 ms;
+    # a run's duration must be, scene.py), the window the 8 ms run had when it was rounded
+    study_window={"time.duration": 1.504, "ground_motion.start": 0.0},
     sweep=(0.05, 0.1, 0.15, 0.2, 0.25, 0.3),
     # the studies' scale: 0.2 = the largest of the first sweep {0.05 .. 0.3} with a partial,
     # arrested heel crack in [0, 1.5] s (None: pick it automatically from the sweep)
@@ -80,14 +82,8 @@ DEFAULT_SCALE = 0.1      # used when no sweep result gives a partial crack
 
 
 # ---------------------------------------------------------------------------------------------
-def _fmt_val(v):
-    if isinstance(v, float):
-        return repr(v)
-    return str(v)
-
-
 def sets_list(sets: dict) -> list[str]:
-    return [f"{k}={_fmt_val(v)}" for k, v in sorted(sets.items())]
+    return overrides_of(sets)
 
 
 def tag_of(sets: dict) -> str:
@@ -107,35 +103,9 @@ def _scene_sets(sets: dict) -> dict:
     return {k: v for k, v in sets.items() if not k.startswith("_")}
 
 
-def _same_scene(summary: dict, scene_name: str, sets: dict) -> bool:
-    from ngs_driver.scene import load_scene
-    want = json.loads(json.dumps(load_scene(scene_name, sets_list(_scene_sets(sets))).to_dict()))
-    have = dict(summary.get("scene", {}))
-    want.pop("output", None)
-    have.pop("output", None)
-    return want == have
-
-
-def worker(outdir: str, scene_name: str, overrides: list[str]) -> int:
-    """One run (subprocess entry): no plots, no progress bar."""
-    from ngs_driver.run.dam import run
-    from ngs_driver.scene import load_scene
-    run(load_scene(scene_name, overrides), outdir, progress=False, plots=False)
-    return 0
-
-
-def read_timeseries(path) -> dict:
-    """timeseries.csv (comment lines start with '#', then a header line) -> column arrays."""
-    lines = [ln for ln in pathlib.Path(path).read_text().splitlines()
-             if ln.strip() and not ln.startswith("#")]
-    names = lines[0].split(",")
-    data = np.array([[float(x) for x in ln.split(",")] for ln in lines[1:]]).reshape(-1, len(names))
-    return {n: data[:, i] for i, n in enumerate(names)}
-
-
 def read_record(run_dir: pathlib.Path, sets: dict) -> dict:
     s = json.loads((run_dir / "summary.json").read_text())
-    ts = read_timeseries(run_dir / "timeseries.csv")
+    ts = read_csv(run_dir / "timeseries.csv")
     r = s["results"]
     ux = np.atleast_1d(ts["crest_ux"])
     ux0 = s["static"]["crest_ux"]
@@ -158,66 +128,47 @@ def read_record(run_dir: pathlib.Path, sets: dict) -> dict:
 
 
 class Runner:
-    def __init__(self, scene_name, runs_dir, jobs=1, in_process=False, on_done=None, log=print):
+    """The study's runs through the one sweep-with-resume (``ngs_driver.studies.sweep``): run
+    <tag> in ``root/runs/<tag>/``, reused while its scene hash is the same; ``records``: tag ->
+    ``read_record`` of every finished run."""
+
+    def __init__(self, scene_name, root, jobs=1, in_process=False, on_done=None, log=print):
         self.scene_name = scene_name
-        self.runs_dir = pathlib.Path(runs_dir)
-        self.runs_dir.mkdir(parents=True, exist_ok=True)
-        self.jobs = max(1, int(jobs))
+        self.root = pathlib.Path(root)
+        self.runs_dir = self.root / "runs"
         self.in_process = in_process
         self.records: dict[str, dict] = {}
         self.on_done = on_done
         self.log = log
-        self._lock = threading.Lock()      # records, the log and the report: one thread at a time
+        self._t0 = {}
+        self._sets = {}
+        self.sweep = Sweep(self.root, run_scene, jobs=1 if in_process else jobs,
+                           on_result=self._done)
 
-    def _reusable(self, d, sets):
-        p = d / "summary.json"
-        if not p.exists():
-            return False
-        try:
-            return _same_scene(json.loads(p.read_text()), self.scene_name, sets)
-        except Exception:
-            return False
-
-    def _execute(self, d, sets):
+    def _spec(self, sets):
+        from ngs_driver.scene import load_scene
         ov = sets_list(_scene_sets(sets))
-        if self.in_process:
-            worker(str(d), self.scene_name, ov)
-            return
-        env = dict(os.environ)
-        env.setdefault("OMP_NUM_THREADS", "1")
-        env.setdefault("OPENBLAS_NUM_THREADS", "1")
-        env.setdefault("MPLBACKEND", "Agg")
-        env.setdefault("NUMBA_CACHE_DIR", str(ROOT / ".numba_cache"))
-        cmd = [sys.executable, str(pathlib.Path(__file__).resolve()), "--worker", str(d),
-               "--scene", self.scene_name, *ov]
-        with open(d.parent / f"{d.name}.log", "w") as fh:
-            p = subprocess.run(cmd, stdout=fh, stderr=subprocess.STDOUT, cwd=str(ROOT), env=env)
-        if p.returncode != 0:
-            raise RuntimeError(f"run {d.name} failed (exit {p.returncode}); see {d.name}.log")
-
-    def one(self, sets):
         tag = tag_of(sets)
-        if tag in self.records:
-            return self.records[tag]
-        d = self.runs_dir / tag
-        t0 = time.perf_counter()
-        reused = self._reusable(d, sets)
-        if not reused:
-            d.mkdir(parents=True, exist_ok=True)
-            self._execute(d, sets)
-        rec = read_record(d, sets)
-        rec["reused"] = reused
-        with self._lock:
-            self._done(tag, rec, reused, t0)
-        return rec
+        self._sets[tag] = sets
+        return {"id": tag, "scene_hash": scene_hash(load_scene(self.scene_name, ov)),
+                "scene_name": self.scene_name, "overrides": ov, "in_process": self.in_process}
 
-    def _done(self, tag, rec, reused, t0):
+    def _record(self, tag, reused):
+        rec = read_record(self.runs_dir / tag, self._sets[tag])
+        rec["reused"] = reused
         self.records[tag] = rec
+        t0 = self._t0.get(tag)
         self.log(f"[koyna_studies] {tag}: wall {rec['wall']:.1f} s, L_end {rec['L_end']:.3f} m, "
                  f"ux_peak {rec['ux_peak']:.4e} m, D_max {rec['D_max']:.3g}"
                  + (" (reused)" if reused else f" ({time.perf_counter() - t0:.0f} s)"))
         if self.on_done:
             self.on_done()
+
+    def _done(self, spec, result):
+        self._record(spec["id"], reused=False)
+
+    def one(self, sets):
+        return self.many([sets])[0]
 
     def many(self, list_of_sets):
         todo, seen = [], set()
@@ -228,13 +179,16 @@ class Runner:
                 todo.append(s)
         # longest runs first (number of steps): the references are done before the cheap rows
         todo.sort(key=lambda s: -s.get("time.duration", 1.0) / s.get("time.dt", 0.002))
-        if self.jobs == 1 or self.in_process:
-            for s in todo:
-                self.one(s)
-        else:
-            with cf.ThreadPoolExecutor(self.jobs) as ex:
-                for f in cf.as_completed([ex.submit(self.one, s) for s in todo]):
-                    f.result()
+        specs = [self._spec(s) for s in todo]
+        done, pending = self.sweep.plan(specs)
+        for tag in done:
+            self._record(tag, reused=True)
+        now = time.perf_counter()
+        self._t0.update({s["id"]: now for s in pending})
+        res = self.sweep.run(pending)
+        if res["errors"]:
+            tag, msg = next(iter(res["errors"].items()))
+            raise RuntimeError(f"run {tag}: {msg}")
         return [self.records[tag_of(s)] for s in list_of_sets]
 
 
@@ -275,7 +229,7 @@ def write_tables(path, cfg, state):
     """Markdown report from whatever has finished so far (called after every run)."""
     R = state["runner"].records
     get = lambda s: R.get(tag_of(s))  # noqa: E731
-    L = ["# Koyna run: error against run time (issue #6)", "",
+    L = ["# Koyna run: error against run time", "",
          f"Scene `{cfg['scene']}`; intensity sweep with `"
          + " ".join(f"--set {x}" for x in sets_list(cfg['window']))
          + "`, convergence studies with `"
@@ -547,7 +501,7 @@ g_max = 4 l_Nc unless stated):
 * Damage and dt (Eq. 7). alpha = 2: max D = 0.0258, 0.0157, 0.0089, 0.0051, 0.0043 at dt = 8, 4, 2, 1,
   0.5 ms -- a factor 6 over the range; its dynamic part (above the static 0.0035) falls as dt^1.2
   (0.0223 -> 0.0008, a factor 27). There is no converged value to approach: with alpha = 2 every step
-  adds (dg/g_max)^2, so refining dt drives the dynamic damage to zero (docs/decisions.md §3 D4); the
+  adds (dg/g_max)^2, so refining dt drives the dynamic damage to zero (docs/law.md §6.1); the
   crack is unaffected only because it is driven by the cohesive softening (kappa), not by D. alpha = 1
   (g_max = 40 l_Nc, partial crack): max D = 0.0379, 0.0409, 0.0401, 0.0407, 0.0408 -- within 7 % over
   the same range (1.7 % from the 0.5 ms value at dt = 2 ms). At the default g_max = 4 l_Nc alpha = 1 does not
@@ -661,8 +615,8 @@ def main(fast: bool = False, outdir=ROOT / "verification" / "out", jobs: int | N
     state = {"t0": time.perf_counter()}
     global LAST_STATE
     LAST_STATE = state
-    runs_dir = outdir / ("koyna_studies_runs_fast" if fast else "koyna_studies_runs")
-    runner = Runner(cfg["scene"], runs_dir, jobs=jobs, in_process=fast,
+    root = outdir / ("koyna_studies_fast" if fast else "koyna_studies")
+    runner = Runner(cfg["scene"], root, jobs=jobs, in_process=fast,
                     on_done=lambda: write_tables(md, cfg, state))
     state["runner"] = runner
     W = dict(cfg["window"])
@@ -752,7 +706,7 @@ def main(fast: bool = False, outdir=ROOT / "verification" / "out", jobs: int | N
         notes.append(f"{_lab(a, m)}: max D = {D[i]:.4g} at dt = {1e3 * d[i]:g} ms and "
                      f"{D[j]:.4g} at dt = {1e3 * d[j]:g} ms (ratio {D[i] / D[j]:.3g} for a dt "
                      f"ratio {d[i] / d[j]:g}; log-log slope {slope:.2f})")
-    state["dt_D_note"] = ("Step-size dependence of the damage law (Eq. 7, docs/decisions.md §3 D4): "
+    state["dt_D_note"] = ("Step-size dependence of the damage law (Eq. 7, docs/law.md §6.1): "
                           + "; ".join(notes) + ".")
     gl = []
     for a in cfg["alphas"]:
@@ -775,10 +729,5 @@ if __name__ == "__main__":
     ap.add_argument("--fast", action="store_true")
     ap.add_argument("--jobs", type=int, default=None)
     ap.add_argument("--out", default=str(ROOT / "verification" / "out"))
-    ap.add_argument("--worker", default=None, help=argparse.SUPPRESS)
-    ap.add_argument("--scene", default="koyna", help=argparse.SUPPRESS)
-    ap.add_argument("overrides", nargs="*", help=argparse.SUPPRESS)
     a = ap.parse_args()
-    if a.worker:
-        raise SystemExit(worker(a.worker, a.scene, a.overrides))
     print(main(fast=a.fast, outdir=a.out, jobs=a.jobs))

@@ -1,4 +1,4 @@
-"""Material-point verification of the interface law (issue #3).
+"""Material-point verification of the interface law.
 
 Sections (REPORT.md headings): 1. the paper's Fig. 5; 2. energy table; 3. tangent table per
 branch; 4. cyclic damage and an S–N-like curve; 5. stiff and extreme cases (pass/fail);

@@ -1,4 +1,4 @@
-"""Verification of the linear Koyna model (issue #5).
+"""Verification of the linear Koyna model.
 
 1. Static state by hand: with a linear (bonded) spring interface the interface resultant
    equals the loads on the dam: vertical = dam weight rho g A, horizontal = water thrust

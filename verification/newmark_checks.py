@@ -1,4 +1,4 @@
-"""Newmark checks on the Koyna model with a bonded, linear interface (issue #5 verification).
+"""Newmark checks on the Koyna model with a bonded, linear interface.
 
 1. Energy conservation of undamped free vibration with average acceleration (beta = 1/4,
    gamma = 1/2): the integrator is exactly energy conserving for a linear system, so the total

@@ -19,6 +19,15 @@ STUDIES = ["material_point", "damage_rate", "scaling_plots", "ground_motion_plot
            "safety_column", "koyna_studies", "damage_rate_koyna", "pine_flat"]
 
 
+def run_study(name: str, fast: bool, outdir):
+    """One study the way ``make verify`` runs it: ``verification.<name>.main(fast=fast,
+    outdir=outdir)`` (the tests run the fast forms through this call)."""
+    if str(ROOT) not in sys.path:
+        sys.path.insert(0, str(ROOT))
+    mod = importlib.import_module(f"verification.{name}")
+    return mod.main(fast=fast, outdir=outdir)
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--fast", action="store_true", help="quick versions (seconds)")
@@ -36,8 +45,7 @@ def main(argv=None) -> int:
             continue
         t0 = time.perf_counter()
         try:
-            mod = importlib.import_module(f"verification.{name}")
-            summary = mod.main(fast=a.fast, outdir=out)
+            summary = run_study(name, a.fast, out)
             print(f"[verify] {name}: done in {time.perf_counter() - t0:.1f} s")
             if isinstance(summary, str):
                 print(summary)

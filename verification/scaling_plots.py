@@ -1,4 +1,4 @@
-"""Verification plots of the size-scale laws (interfacelaw.scaling; docs/decisions.md §2).
+"""Verification plots of the size-scale laws (interfacelaw.scaling; docs/scaling.md).
 
 Writes to verification/out/ (or --out DIR):
   scaling_fig1.png      paper Fig. 1(a)(b): tensile strength (k = -0.14) and fracture energy

@@ -69,13 +69,14 @@ def main(argv=None) -> int:
     if koyna.exists():
         out += koyna_section(json.loads(koyna.read_text()), rows)
     else:
-        out += ["", "## Koyna (issue #7)", "",
+        out += ["", "## Koyna dam — not run", "",
                 "Not run here: `python verification/bench_koyna.py` writes "
                 "verification/out/bench_koyna.json, then rerun this script."]
     # hand-written sections of other studies (IDA, law kernel, solver speed of issue #15, ...)
     # are kept as they are, after the generated ones
     if dst.exists():
-        generated = ("## Ratios (same run)", "## Koyna dam (issue #7)", "## Koyna (issue #7)")
+        generated = ("## Ratios (same run)", "## Koyna dam — ", "## Koyna dam (issue #7)",
+                     "## Koyna (issue #7)")
         sec = None
         for line in dst.read_text().splitlines():
             if line.startswith("## ") or line.startswith("# "):
@@ -104,7 +105,7 @@ def koyna_section(k: dict, rows: dict | None = None) -> list[str]:
     pytest-benchmark Koyna rows of the same `make bench` run when present."""
     e = k.get("env", {})
     la = k.get("loadavg_start", [])
-    out = ["", "## Koyna dam (issue #7) — `verification/bench_koyna.py`", "",
+    out = ["", "## Koyna dam — `verification/bench_koyna.py`", "",
            f"Machine: {e.get('cpu')}, {e.get('cores')} cores (shared with other sessions), "
            f"Python {e.get('python')}, OMP/BLAS threads {e.get('threads')}; date {e.get('date')}.",
            "Commands: " + "; ".join(f"`{c}`" for c in k.get("commands", [k.get("command")]))
@@ -115,7 +116,7 @@ def koyna_section(k: dict, rows: dict | None = None) -> list[str]:
     p1 = k.get("part1")
     if p1:
         out += ["### Time per step against DOFs and interface points", "",
-                f"Short runs of `python -m ngs_driver run koyna` (koyna.run on a prebuilt model; "
+                f"Short runs of `python -m ngs_driver run koyna` (ngs_driver.run.run on a prebuilt model; "
                 f"{p1['duration']} s = {round(p1['duration'] / 2e-3)} steps of dt = 2 ms) from "
                 f"`ground_motion.start = {p1['start']}` s: {p1['record']} — its strongest "
                 f"second. Per-step wall = median over the steps of a run (the first step, which "

@@ -1,11 +1,11 @@
-"""Double cantilever beam (mode I), quasi-static under displacement control (issue #6,
-"Error against run time").
+"""Double cantilever beam (mode I), quasi-static under displacement control ("Error against
+run time").
 
 Two elastic arms of height ``h`` (regions "top", "bottom"; thickness ``b``), length ``L``,
 an unbonded initial crack on ``0 <= x <= a0`` and the project's interface law on the bonded
 part ``a0 <= x <= L`` (boundary "interface", ``g = u_top - u_bottom`` in the fixed frame
-normal +y, tangent +x; operator from ``model.build_interface`` with ``n_gauss`` points per
-segment = the virtual node technique).  The load faces (x = 0) of the arms move rigidly
+normal +y, tangent +x; operator from ``fe.coupling.build_joint_operator`` with ``n_gauss``
+points per segment = the virtual node technique).  The load faces (x = 0) of the arms move rigidly
 by ``u_y = +-delta/2`` (u_x free, so the end section rotates freely: a pure end shear, the
 load case of beam theory); u_x = 0 at the neutral-axis point (0, +-h/2) removes the axial
 rigid mode (its reaction is zero: no x loads).  A soft anchor spring (``anchor`` x E b,
@@ -38,8 +38,8 @@ import pathlib
 
 from interfacelaw import CohesiveParams, ContactParams, InterfaceLaw
 
-from ..out.files import atomic_write_json, atomic_write_text, environment_info
-from ..fe.coupling import block_diag, build_interface
+from ..post.files import atomic_write_json, atomic_write_text, environment_info
+from ..fe.coupling import block_diag, build_joint_operator
 from ..fe.model import Material
 from ..fe.ngs_helpers import find_vertex, to_scipy
 
@@ -206,7 +206,7 @@ class DCBProblem:
     spec: DCBSpec
     mesh: object
     K: sp.csr_matrix             # (ndof, ndof) bulk stiffness (+ soft anchors)
-    interface: object            # model.Interface (B on all DOFs)
+    interface: object            # fe.coupling.JointOperator (B on all DOFs)
     free: np.ndarray             # free DOF indices
     fixed: np.ndarray            # constrained DOF indices
     pattern: np.ndarray          # (ndof,) prescribed displacement per unit delta
@@ -224,7 +224,7 @@ class DCBProblem:
 def build_dcb(spec: DCBSpec = DCBSpec(), h_int: float = 0.02, n_gauss: int = 5,
               order: int = 2, h_bulk: float | None = None, anchor: float = 1e-9,
               mesh=None) -> DCBProblem:
-    """Mesh, bulk stiffness, interface operator (``model.build_interface``, matching mesh,
+    """Mesh, bulk stiffness, joint operator (``fe.coupling.build_joint_operator``, matching mesh,
     ``n_gauss`` Gauss points per segment) and constraints of the DCB."""
     import ngsolve as ngs
 
@@ -285,7 +285,7 @@ def build_dcb(spec: DCBSpec = DCBSpec(), h_int: float = 0.02, n_gauss: int = 5,
     K = K.tocsr()
     fixed = np.array(sorted(fixed))
     free = np.setdiff1d(np.arange(ndof), fixed)
-    iface = build_interface(mesh, fes, Vt, Vb, np.arange(ndof), n_gauss, "rock", True, order)
+    iface = build_joint_operator(mesh, fes, Vt, Vb, np.arange(ndof), n_gauss, "rock", True, order)
     return DCBProblem(spec, mesh, K, iface, free, fixed, pattern, load["top"],
                       load["bottom"], n_gauss, h_int, order)
 

@@ -13,7 +13,7 @@ import time
 
 import numpy as np
 
-from ..out.files import atomic_write_json, environment_info
+from ..post.files import atomic_write_json, environment_info
 from ..setup import build_law, law_parts
 
 

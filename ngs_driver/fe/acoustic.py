@@ -1,4 +1,4 @@
-"""Acoustic reservoir (issue #12, docs/decisions.md "Reservoir"): hydrodynamic pressure p in an
+"""Acoustic reservoir (docs/reservoir.md): hydrodynamic pressure p in an
 NGSolve H1 space on a water mesh glued to the dam's upstream face.
 
 Water: x < face, 0 <= y <= H (level), length L upstream of the heel.  p is the hydrodynamic
@@ -415,6 +415,10 @@ class AcousticReservoir:
         I, J = np.meshgrid(rows, rows, indexing="ij")
         return sp.csr_matrix((Maf.ravel(), (I.ravel(), J.ravel())), shape=(n, n))
 
+    def solve_H(self, b):
+        """H^-1 b with the water's Laplacian-like matrix H (factorised once, at ``build``)."""
+        return self._Hfac.solve(b)
+
     # --- incompressible: condensed -------------------------------------------------------
     def seismic_vectors(self, M_rx, M_ry):
         """M r (with M_a) -> M_s r + rho Q H^-1 g (the ground-driven pressure of the face, the
@@ -442,10 +446,6 @@ class AcousticReservoir:
         Cc = sp.bmat([[C if C is not None else sp.csr_matrix((nu, nu)), Z],
                       [Z.T, W.Cf]], format="csr")
         return Kc, Mc, Cc
-
-    def coupled_loads(self, f_u, agx, agy):
-        """Right-hand side of the fluid rows: -rho (g_x a_gx + g_y a_gy)."""
-        return np.concatenate([f_u, -self.rho * (self.g_x * agx + self.g_y * agy)])
 
     def energy(self, u, v, p, pdot, pi, K, M):
         """Total energy of the undamped coupled system: 1/2 v M v + 1/2 u K u + 1/(2 rho)

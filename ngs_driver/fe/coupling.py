@@ -1,4 +1,4 @@
-"""Interface operators: the gap at the Gauss points of a joint, g = B u (virtual nodes).
+"""Joint operators: the gap at the Gauss points of a joint, g = B u (virtual nodes).
 
 Matching meshes: NGSolve evaluates the basis functions at the Gauss points of an
 ``IntegrationRuleSpaceSurface``; non-matching: segment-to-segment (patch test to round-off)
@@ -15,13 +15,13 @@ from .ngs_helpers import to_scipy, vec, vertex_xy_dofs
 
 
 @dataclass
-class Interface:
-    """Interface operator at ``n_gauss`` Gauss points per interface segment (virtual
-    node technique).  Points are sorted by x (heel first).
+class JointOperator:
+    """The gap operator of one or several joints at ``n_gauss`` Gauss points per segment
+    (virtual node technique).  Points are sorted by x (heel first).
 
     gap at point p: ``(g_N, g_T) = B[2p:2p+2] @ u``  (u: free-DOF vector), in the fixed
     frame ``normal`` (from rock into dam, +y for Koyna) and ``tangent`` (+x); gap =
-    u_dam - u_rock.  Interface virtual work = sum_p w_p t_p . dg_p, so the interface
+    u_dam - u_rock.  Joint virtual work = sum_p w_p t_p . dg_p, so the interface
     internal force is ``B.T @ (w[:, None] * t).ravel()``.
     """
 
@@ -55,7 +55,7 @@ class Interface:
         return (self.B @ u).reshape(-1, 2)
 
     def force(self, t: np.ndarray) -> np.ndarray:
-        """Interface internal force B^T (w t) for tractions t (npts, 2) = (t_N, t_T)."""
+        """Joint internal force B^T (w t) for tractions t (npts, 2) = (t_N, t_T)."""
         t = np.asarray(t, dtype=float).reshape(-1, 2)
         return self.B.T @ (self.w[:, None] * t).ravel()
 
@@ -86,12 +86,12 @@ def block_diag(D: np.ndarray) -> sp.csr_matrix:
 
 
 
-def build_interface(mesh, fes, Vd, Vr, free, n_gauss: int, foundation: str,
+def build_joint_operator(mesh, fes, Vd, Vr, free, n_gauss: int, foundation: str,
                     matching: bool, order: int,
                     coupling: str = "segment-to-segment", *, upper: int = 0,
                     lower: int | None = 1, boundary: str = "interface",
-                    rock_offset: int | None = None, name: str = "base") -> Interface:
-    """Interface operator B (see ``Interface``).
+                    rock_offset: int | None = None, name: str = "base") -> JointOperator:
+    """Joint operator B (see ``JointOperator``).
 
     Dam side (and rock side for matching meshes): NGSolve evaluates the basis functions
     at the Gauss points of an ``IntegrationRuleSpaceSurface`` on the "interface" segments:
@@ -188,7 +188,7 @@ def build_interface(mesh, fes, Vd, Vr, free, n_gauss: int, foundation: str,
     rp[1::2] = 2 * pord + 1
     B = Bfull[rp][:, free].tocsr()
     B.eliminate_zeros()
-    return Interface(B=B, x=xs[pord], y=ys[pord], w=w[pord], segment=seg_new[seg_of_dof][pord],
+    return JointOperator(B=B, x=xs[pord], y=ys[pord], w=w[pord], segment=seg_new[seg_of_dof][pord],
                      segments=segs[seg_order], n_gauss=n_gauss, normal=normal,
                      tangent=tangent, matching=matching or ur is None, name=name)
 
@@ -231,7 +231,7 @@ def _p1_rows(segs, off, X, sign, normal, tangent, rows, cols, vals, i):
 
 
 def segment_to_segment(mesh, fes, Vd, Vr, free, n_gauss, normal, tangent,
-                       rock_offset) -> "Interface":
+                       rock_offset) -> "JointOperator":
     """Non-matching straight interface, integrated segment-to-segment: the dam-side and
     rock-side segments are cut at every vertex of either side, and each piece carries n Gauss
     points, so both sides' linear shape functions are smooth on every piece and B^T W t is
@@ -273,7 +273,7 @@ def segment_to_segment(mesh, fes, Vd, Vr, free, n_gauss, normal, tangent,
     order = np.argsort(segs[:, 0, 0], kind="stable")
     renum = np.empty_like(order)
     renum[order] = np.arange(order.size)
-    return Interface(B=B, x=xs, y=ys, w=w, segment=renum[seg], segments=segs[order],
+    return JointOperator(B=B, x=xs, y=ys, w=w, segment=renum[seg], segments=segs[order],
                      n_gauss=n_gauss, normal=normal, tangent=tangent, matching=False, name="base")
 
 
@@ -288,7 +288,7 @@ def _rock_nts(mesh, fes, Vd, Vr, xs, ys, normal, tangent, rock_offset) -> sp.csr
     return sp.csr_matrix((vals, (rows, cols)), shape=(2 * xs.size, fes.ndof))
 
 
-def stack_interfaces(ifaces) -> Interface:
+def stack_joint_operators(ifaces) -> JointOperator:
     """One operator over the concatenated points of several joints (the base first); the
     solver sees one gap vector, ``parts`` tells each joint's slice."""
     parts, segs, seg_ids, n0, s0 = {}, [], [], 0, 0
@@ -298,7 +298,7 @@ def stack_interfaces(ifaces) -> Interface:
         segs.append(it.segments)
         n0 += it.npts
         s0 += it.segments.shape[0]
-    return Interface(B=sp.vstack([it.B for it in ifaces]).tocsr(),
+    return JointOperator(B=sp.vstack([it.B for it in ifaces]).tocsr(),
                      x=np.concatenate([it.x for it in ifaces]),
                      y=np.concatenate([it.y for it in ifaces]),
                      w=np.concatenate([it.w for it in ifaces]),

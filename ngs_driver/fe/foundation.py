@@ -1,9 +1,8 @@
-"""Foundation models (issue #13; docs/decisions.md §9): the massless rock's initial acceleration
-and Lysmer-Kuhlemeyer viscous boundaries.
+"""Foundation models (docs/safety.md): the massless rock's DOFs and Lysmer-Kuhlemeyer
+viscous boundaries.
 
-* ``massless_dofs(M)``: free DOFs without mass (zero rows of M: the massless rock block).
-* ``initial_acceleration(solver, f, massless, a1)``: the start-up acceleration when M is
-  singular on the massless DOFs (``NewmarkSolver.initial_acceleration`` factorises M).
+* ``massless_dofs(M)``: free DOFs without mass (zero rows of M: the massless rock block; their
+  start-up acceleration is ``solve.massless.initial_acceleration``).
 * ``dashpot_matrix(...)``: C_LK = integral over boundaries of rho (c_P n n^T + c_S t t^T) u . v,
   the Lysmer & Kuhlemeyer (1969) viscous boundary, to be added to the damping matrix.
 """
@@ -14,41 +13,12 @@ import math
 import numpy as np
 import scipy.sparse as sp
 
-__all__ = ["massless_dofs", "initial_acceleration", "wave_speeds", "dashpot_matrix"]
+__all__ = ["massless_dofs", "wave_speeds", "dashpot_matrix", "AbsorbingRock"]
 
 
 def massless_dofs(M) -> np.ndarray:
     """Bool mask of the DOFs whose row of M is zero."""
     return np.asarray(abs(sp.csr_matrix(M)).sum(axis=1)).ravel() == 0.0
-
-
-def initial_acceleration(solver, f, massless, a1: float):
-    """Solve the start-up acceleration of a model whose M vanishes on ``massless`` DOFs, for
-    the committed u and v = 0 (the static state). Massive DOFs: M_mm a_m = r_m,
-    r = f - K u - C v - B^T W t. Massless DOFs have no inertia: their equation is
-    a1 K_00 v_0 + (K_00 + J_00) u_0 + J_0m u_m = f_0 (J = B^T W K0 B the bonded interface,
-    Rayleigh C = a0 M + a1 K has only its a1 K part there) at every t. Differentiated once at
-    v = 0: a1 K_00 a_0 = 0, so a_0 = 0 when a1 > 0 (stiffness-proportional damping makes the
-    massless part first order); twice with a1 = 0: (K_00 + J_00) a_0 = -J_0m a_m. Sets
-    solver.a and solver.f."""
-    from ..solve.sparse import SparseFactor
-
-    m = ~np.asarray(massless, bool)
-    r = f - solver.K @ solver.u - solver._fint(solver.t)
-    if solver.C is not None:
-        r = r - solver.C @ solver.v
-    a = np.zeros(solver.ndof)
-    Mmm = solver.M[m][:, m]
-    a[m] = SparseFactor(Mmm.tocsc()).solve(r[m])
-    z = ~m
-    if a1 <= 0.0 and z.any():
-        from ..solve.joint_laws import initial_stiffness
-        k0 = initial_stiffness(solver.law, solver.npts).ravel() * np.repeat(solver.w, 2)
-        Kt = (solver.K + solver.B.T @ sp.diags(k0) @ solver.B).tocsr()
-        a[z] = SparseFactor(Kt[z][:, z].tocsc()).solve(-(Kt[z][:, m] @ a[m]))
-    solver.a = a
-    solver.f = np.array(f, dtype=float)
-    return a
 
 
 def _lame(E: float, nu: float, plane: str = "strain") -> tuple[float, float]:
@@ -92,7 +62,7 @@ def dashpot_matrix(mesh, fes, free, boundaries: str, E: float, nu: float, rho: f
 
 class AbsorbingRock:
     """A massed rock block with Lysmer-Kuhlemeyer dashpots on its sides and bottom and the
-    earthquake entered as free-field forces (docs/decisions.md §9).
+    earthquake entered as free-field forces (docs/safety.md).
 
     The given record is the **outcrop** motion (the free surface of the rock, y = 0). For
     vertically incident waves in the homogeneous rock (S for x, P for y) the free field is

@@ -86,16 +86,8 @@ def _interface_stations(x0: float, x1: float, h_heel: float, h_int: float,
     return [(x1 - s, h) for s, h in st]
 
 
-def _add_poly(geo, pts_h, leftdomain, rightdomain, bcs, maxhs):
-    """Append a polygon chain; pts_h is a list of point indices."""
-    n = len(pts_h)
-    for i in range(n):
-        geo.Append(["line", pts_h[i], pts_h[(i + 1) % n]], leftdomain=leftdomain,
-                   rightdomain=rightdomain, bc=bcs[i], maxh=maxhs[i])
-
-
 @dataclass(frozen=True)
-class JointSpec:
+class JointCut:
     """A lift joint to mesh: horizontal cut at ``elevation`` graded from both ends."""
     name: str
     elevation: float
@@ -115,7 +107,7 @@ def dam_mesh(section, joints=(), foundation: str = "rock", h_heel: float = 0.1,
              h_heel_rock: float | None = None, h_interface_rock: float | None = None,
              heel_zone: float = 5.0, reservoir_level: float | None = None):
     """Netgen mesh of a dam section (``section.Section``) cut by lift ``joints``
-    (``JointSpec``) into blocks (regions ``dam_block_names``) and, for foundation="rock", its
+    (``JointCut``) into blocks (regions ``dam_block_names``) and, for foundation="rock", its
     rock block (region "rock") of extent ``extent_* x base width`` upstream, downstream and
     below.
 

@@ -7,10 +7,8 @@ l_Nc = 2 G_I / sigma_max (``paper_k0``).
 
 from __future__ import annotations
 
-import json
 import math
 from dataclasses import dataclass
-from pathlib import Path
 
 import numpy as np
 import scipy.sparse.linalg as sla
@@ -20,7 +18,7 @@ def paper_k0(sigma_max: float = 3e6, tau_max: float = 3e6, G_I: float = 250.0,
              lambda_max: float = 0.2, ratio_lTc_lNc: float = 1.0) -> tuple[float, float]:
     """Initial (bonded) stiffness [Pa/m] (normal, tangential) of the paper's law:
     k_N = sigma_max/(lambda_max l_Nc), k_T = tau_max l_Nc/(lambda_max l_Tc^2),
-    l_Nc = 2 G_I/sigma_max, l_Tc = ratio l_Nc (docs/decisions.md §1.1).
+    l_Nc = 2 G_I/sigma_max, l_Tc = ratio l_Nc (docs/law.md §2).
     Paper values: 3e6 / (0.2 * 1.667e-4) = 9.0e10 Pa/m."""
     l_nc = 2.0 * G_I / sigma_max
     l_tc = ratio_lTc_lNc * l_nc
@@ -112,19 +110,6 @@ def damping_from_modes(res: ModalResult, ratio: float = 0.05, modes=(1, 3),
     return {"model": model, "a0": a0, "a1": a1, "ratio": ratio, "f_a": fa, "f_b": fb,
             "source": src,
             "ratio_at_modes": [float(z) for z in rayleigh_ratio(res.frequencies_hz, a0, a1)]}
-
-
-def write_modal_json(path, res: ModalResult, damping: dict | None = None,
-                     extra: dict | None = None) -> Path:
-    d = res.to_dict()
-    if damping is not None:
-        d["rayleigh"] = damping
-    if extra:
-        d.update(extra)
-    p = Path(path)
-    p.parent.mkdir(parents=True, exist_ok=True)
-    p.write_text(json.dumps(d, indent=2))
-    return p
 
 
 def k0_from_scene(scene) -> tuple[float, float]:

@@ -1,9 +1,9 @@
-"""Linear NGSolve model of the Koyna dam on its rock foundation (issue #5).
+"""Linear NGSolve model of the Koyna dam on its rock foundation.
 
 Everything the nonlinear solver needs, as scipy sparse matrices restricted to the free DOFs:
 stiffness ``K``, mass ``M``, loads ``f_gravity`` / ``f_water``, influence vectors ``r_x`` /
 ``r_y`` (relative formulation: the effective seismic load is ``-M (r_x a_gx + r_y a_gy)``)
-and the interface operator (``Interface``: gap at Gauss points ``g = B u``).
+and the joints' gap operator (``JointOperator``: gap at Gauss points ``g = B u``).
 
 Displacement spaces: ``Compress(VectorH1(mesh, order, definedon="dam"))`` x
 ``Compress(VectorH1(mesh, order, definedon="rock", dirichlet=...))``; the two fields are
@@ -27,7 +27,7 @@ import scipy.sparse as sp
 from . import geometry as geom
 from ..scene import KOYNA_PROFILE
 from ..section import Section
-from .coupling import Interface, build_interface, stack_interfaces
+from .coupling import JointOperator, build_joint_operator, stack_joint_operators
 from .ngs_helpers import find_vertex, to_scipy, vec, vertex_xy_dofs
 
 G_STANDARD = 9.81
@@ -89,7 +89,7 @@ class Model:
     f_water: np.ndarray
     r_x: np.ndarray
     r_y: np.ndarray
-    interface: Interface
+    interface: JointOperator
     crest_dofs: tuple[int, int]    # free indices of (u_x, u_y) at ``crest_point``
     dam_dofs: np.ndarray           # bool (nfree,): DOF belongs to the dam
     materials: dict[str, Material]
@@ -102,7 +102,7 @@ class Model:
     reservoir: Any = None          # fe.reservoir.ReservoirModel ([reservoir] model != "none")
     crest_point: tuple[float, float] = (0.0, 103.0)
     regions: tuple = ("dam", "rock")       # one displacement field per region, fes order
-    joints: dict = field(default_factory=dict)   # name -> Interface (base first)
+    joints: dict = field(default_factory=dict)   # name -> JointOperator (base first)
     section: Any = None
 
     @property
@@ -210,7 +210,7 @@ def build_model(foundation: str = "rock", order: int = 1, gauss_points: int = 3,
     """Assemble the linear model.
 
     section: the dam's ``Section`` (default: the Koyna profile); joints: lift joints
-    (``geometry.JointSpec``), each cutting the dam into blocks with their own displacement
+    (``geometry.JointCut``), each cutting the dam into blocks with their own displacement
     fields, coupled only through the joint's interface law.  mesh_kw go to
     ``geometry.dam_mesh`` (h_heel, h_coarse, h_interface, growth, heel_zone, grading,
     extent_up/down/depth, matching, ...).  A prepared mesh (e.g. ``geometry.two_block_mesh``)
@@ -233,8 +233,8 @@ def build_model(foundation: str = "rock", order: int = 1, gauss_points: int = 3,
         raise ValueError(f"gauss_points={gauss_points}: must be >= 1")
     # reservoir: a scene [reservoir] table (fe/reservoir.py; none -> nothing is built)
     reservoir = mesh_kw.pop("reservoir", None)
-    # issue #13: "massed" is the rock block ("rock" its alias); "massless" the same block
-    # without mass (docs/decisions.md §9)
+    # "massed" is the rock block ("rock" its alias); "massless" the same block
+    # without mass (docs/safety.md)
     foundation_name = foundation
     massless = foundation == "massless"
     if foundation in ("massed", "massless"):
@@ -380,17 +380,17 @@ def build_model(foundation: str = "rock", order: int = 1, gauss_points: int = 3,
     crest_dofs = (int(inv[offsets[kt] + crest[0]]), int(inv[offsets[kt] + crest[1]]))
 
     # ---- interface operators: the base, then the lift joints bottom up ----
-    base = build_interface(mesh, fes, spaces[0], None if foundation == "rigid" else spaces[-1],
+    base = build_joint_operator(mesh, fes, spaces[0], None if foundation == "rigid" else spaces[-1],
                            free, gauss_points, foundation, matching, order,
                            upper=0, lower=None if foundation == "rigid" else len(spaces) - 1,
                            rock_offset=int(offsets[-2]), name="base")
     joint_ifaces = [base]
     for k, j in enumerate(joints):
         ng = gauss_points if joint_gauss is None else joint_gauss
-        joint_ifaces.append(build_interface(mesh, fes, spaces[k + 1], spaces[k], free, ng,
+        joint_ifaces.append(build_joint_operator(mesh, fes, spaces[k + 1], spaces[k], free, ng,
                                             "joint", True, order, upper=k + 1, lower=k,
                                             boundary=j.name, name=j.name))
-    iface = base if len(joint_ifaces) == 1 else stack_interfaces(joint_ifaces)
+    iface = base if len(joint_ifaces) == 1 else stack_joint_operators(joint_ifaces)
 
     return Model(mesh=mesh, info=mesh_info, fes=fes, foundation=foundation_name, order=order,
                  free=free, K=K, M=M, f_gravity=f_gravity, f_water=f_water, r_x=r_x,
@@ -420,7 +420,7 @@ def model_kwargs(scene) -> dict:
         d = getattr(scene.materials, region)
         return Material(d.E, d.nu, d.rho, getattr(scene.materials, "plane", "strain"))
 
-    joints = tuple(geom.JointSpec(j.name, j.elevation, j.h_end or m.h_heel,
+    joints = tuple(geom.JointCut(j.name, j.elevation, j.h_end or m.h_heel,
                                   j.h_joint or m.h_interface) for j in scene.joints)
     return dict(section=scene.section, joints=joints,
                 foundation=g.foundation, order=m.order, gauss_points=m.gauss_points,

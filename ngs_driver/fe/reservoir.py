@@ -1,4 +1,4 @@
-"""Hydrodynamic reservoir models on the dam's free DOFs (issue #12, docs/decisions.md "Reservoir").
+"""Hydrodynamic reservoir models on the dam's free DOFs (docs/reservoir.md).
 
 * ``westergaard_added_mass``: Westergaard's (1933) added mass m(y) = 7/8 rho_w sqrt(H (H - y))
   per unit area of the wetted upstream face, acting along the face normal (the generalised
@@ -67,11 +67,6 @@ def westergaard_added_mass(fes, free: np.ndarray, level: float, water_density: f
     a.Assemble()
     Ma = to_scipy(a.mat)[free][:, free]
     return ((Ma + Ma.T) * 0.5).tocsr()
-
-
-def westergaard_total(level: float, water_density: float) -> float:
-    """Total added mass of a vertical face [kg/m]: int_0^H 7/8 rho sqrt(H (H - y)) dy = 7/12 rho H^2."""
-    return 7.0 / 12.0 * water_density * level ** 2
 
 
 def build_reservoir(res, mesh, fes, free, water_density, components=None, regions=None,
@@ -175,9 +170,12 @@ def resonance_peaks(f, amp, min_prominence: float = 0.05) -> dict:
     return out
 
 
-def modal_extra(model, scene, k0_normal, k0_tangential, out) -> dict:
-    """What ``modal`` reports about the reservoir; for compressible acoustic water also the
-    crest frequency response (``frequency_response.csv`` / ``.png`` in out)."""
+def modal_response(model, scene, k0_normal, k0_tangential) -> tuple[dict, dict | None]:
+    """What ``modal`` reports about the reservoir, and for compressible acoustic water the crest
+    frequency response (else None): {"f": frequencies [Hz], "f_dry": the first frequency
+    without water, "eta": hysteretic damping, "curves": {"none" | "incompressible" |
+    "compressible": crest acceleration / a_g}, "peak_hz", "f1_reservoir_hz": c / 4H}. The
+    files are written by ``post.modal.write_frequency_response``."""
     res = model.reservoir
     d = dict(res.info)
     d["kind"] = res.kind
@@ -185,9 +183,7 @@ def modal_extra(model, scene, k0_normal, k0_tangential, out) -> dict:
         d["note"] = ("frequencies_hz include the hydrodynamic added mass ("
                      + ("Westergaard" if res.kind == "westergaard" else
                         "incompressible acoustic water, condensed exactly") + ")")
-        return d
-    from pathlib import Path
-
+        return d, None
     from .modal import modal_analysis
     d["note"] = ("compressible water: frequencies_hz are those of the dam without water; the "
                  "coupled system is frequency dependent, see frequency_response")
@@ -196,48 +192,11 @@ def modal_extra(model, scene, k0_normal, k0_tangential, out) -> dict:
     eta = 2 * scene.damping.ratio
     curves = {k: frequency_response(model, k0_normal, k0_tangential, f, eta, k)[1]
               for k in ("none", "incompressible", "compressible")}
-    out = Path(out)
-    out.mkdir(parents=True, exist_ok=True)
-    with open(out / "frequency_response.csv", "w") as fh:
-        fh.write("f_hz,f_over_f1_dry,crest_acc_empty,crest_acc_incompressible,"
-                 "crest_acc_compressible\n")
-        for i, fi in enumerate(f):
-            fh.write(f"{fi:.6g},{fi / f_dry:.6g}," + ",".join(
-                f"{abs(curves[k][i]):.6g}" for k in ("none", "incompressible",
-                                                      "compressible")) + "\n")
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-    peaks = {k: resonance_peaks(f, v) for k, v in curves.items()}
-    fig, ax = plt.subplots(figsize=(7, 4))
-    for k, lab in (("none", "empty"), ("incompressible", "incompressible water"),
-                   ("compressible", f"compressible, alpha = {scene.reservoir.bottom_reflection:g}")):
-        ln, = ax.plot(f, np.abs(curves[k]), label=lab)
-        fp = peaks[k]["fundamental"]
-        if fp is not None:
-            ax.plot([fp["f_hz"]], [fp["amplitude"]], "o", color=ln.get_color(), ms=5)
-            ax.annotate(f"{fp['f_hz']:.2f} Hz", (fp["f_hz"], fp["amplitude"]),
-                        textcoords="offset points", xytext=(4, 4), fontsize=7,
-                        color=ln.get_color())
-    ax.axvline(res.acoustic.c / (4 * res.level), color="0.6", ls=":", lw=1,
-               label="reservoir f1 = c / 4H")
-    ax.set_xlabel("frequency [Hz]")
-    ax.set_ylabel("|crest total acceleration| / a_g")
-    ax.set_title(f"{scene.name}: crest response to harmonic horizontal ground acceleration "
-                 f"(hysteretic eta = {eta:g})", fontsize=9)
-    ax.legend(fontsize=8, title="o: fundamental resonance (first peak)", title_fontsize=7)
-    fig.tight_layout()
-    fig.savefig(out / "frequency_response.png", dpi=120)
-    plt.close(fig)
-    fund = {k: v["fundamental"] for k, v in peaks.items()}
-    d["frequency_response"] = {
-        "files": ["frequency_response.csv", "frequency_response.png"],
-        "fundamental_resonance": fund,
-        "fundamental_hz": {k: (v["f_hz"] if v else None) for k, v in fund.items()},
-        "global_max": {k: v["global_max"] for k, v in peaks.items()},
-        # the grid frequency of the global maximum (the only peak reported before issue #23)
-        "peak_hz": {k: float(f[int(np.argmax(np.abs(v)))]) for k, v in curves.items()},
-        "hysteretic_eta": eta, "f1_dry_hz": float(f_dry),
-        "fundamental_ratio_compressible_over_dry": (
-            fund["compressible"]["f_hz"] / f_dry if fund["compressible"] else None)}
-    return d
+    peaks = {k: float(f[int(np.argmax(np.abs(v)))]) for k, v in curves.items()}
+    # the fundamental resonance (first peak) beside the global maximum: on an empty or
+    # incompressible reservoir the crest acceleration's global maximum is often the second
+    # mode's (docs/real_dams.md)
+    resonances = {k: resonance_peaks(f, v) for k, v in curves.items()}
+    return d, {"f": f, "f_dry": float(f_dry), "eta": eta, "curves": curves, "peak_hz": peaks,
+               "resonances": resonances,
+               "f1_reservoir_hz": res.acoustic.c / (4 * res.level)}

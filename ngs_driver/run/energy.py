@@ -1,4 +1,4 @@
-"""The energy budget of a run, step by step (docs/decisions.md §7.4).
+"""The energy budget of a run, step by step (docs/solver.md §9).
 
 From the static state (t = 0) on, per metre of dam [J/m]:
 
@@ -22,7 +22,7 @@ From the static state (t = 0) on, per metre of dam [J/m]:
              = W_joints - (E_stored + E_diss + E_scaling)
 
 With compressible acoustic water (``fluid``: the fluid stepper's ``energy_terms``) the water's
-terms join the budget (issue #23): the ground's work on the water W_water (an input) and the
+terms join the budget: the ground's work on the water W_water (an input) and the
 water's kinetic and potential energy, the energy radiated at the far end and absorbed at the
 bottom; residual = W_ext + W_water - (... + E_water_kin + E_water_pot + E_water_radiated +
 E_water_absorbed). Westergaard and incompressible water are added masses in M: their kinetic
@@ -134,7 +134,7 @@ class EnergyBudget:
         # Westergaard / incompressible added mass already in M (reported only)
         self.fluid = fluid if hasattr(fluid, "energy_terms") else None
         self.added_mass = added_mass
-        self.joints = joints              # run.joints.JointSet (names, slices, laws)
+        self.joints = joints              # run.joints.Joints (names, slices, laws)
         self.rows = []
         self._split = None
         if C is not None and rayleigh is not None and _symmetric(K) and _symmetric(M):

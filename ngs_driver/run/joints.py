@@ -13,7 +13,7 @@ from numba import njit
 from ..setup import build_law, build_scaling
 from ..solve.joint_laws import JointLaws
 
-__all__ = ["JointSet", "JointScan", "crack_measures", "debonded_measures", "JOINT_KEYS"]
+__all__ = ["Joints", "JointScan", "crack_measures", "debonded_measures", "JOINT_KEYS"]
 
 # per-joint history columns, prefixed "<joint>_" in timeseries.csv
 JOINT_KEYS = ("crack_length", "crack_length_upstream", "n_debonded", "max_D", "D_upstream",
@@ -132,7 +132,7 @@ def _scan(starts, stops, par, w, kappa, damage, t, g, wd, wb, cpb, stored, ints,
 class JointScan:
     """What a step's measures need from the committed state, computed once for every joint
     in one compiled pass (``_scan``) instead of ~40 small numpy operations spread over the
-    joints', safety's and energy's measures (issue #15). Fields per joint i (``slices[i]``):
+    joints', safety's and energy's measures. Fields per joint i (``slices[i]``):
     n_debonded, crack_length, crack_length_upstream, max_D, bonded_length, bonded(i) -> (w,
     c_p) of its bonded points; ``stored`` the recoverable energy of every point."""
 
@@ -162,7 +162,11 @@ def _c2(a):
     return a.reshape(-1, 2)
 
 
-class JointSet:
+class Joints:
+    """The joints of a run (the base first, then the lift joints bottom up): names, point
+    slices of the joint operator ``iface``, each joint's reference law, its size scaling and
+    its current (size-scaled) law, and the per-step measures."""
+
     def __init__(self, scene, iface):
         tables = scene.joint_tables()
         self.names = [n for n, _ in tables]

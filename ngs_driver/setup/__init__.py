@@ -11,7 +11,8 @@ from .records import DEFAULT_RECORDS, load_ground_motion
 from .uplift import describe_uplift, validate_safety
 
 __all__ = ["FORMULATION", "build_law", "build_scaling", "characteristic_times", "law_parts",
-           "load_ground_motion", "describe", "validate", "validate_laws", "DEFAULT_RECORDS"]
+           "load_ground_motion", "describe", "validate", "validate_laws", "window_note",
+           "DEFAULT_RECORDS"]
 
 FORMULATION = ("relative (rock bottom fixed, ground acceleration as effective inertial load "
                "-M r a_g(t); displacements relative to the rigid ground motion)")
@@ -24,15 +25,34 @@ def validate(scene):
     and parses, or the named set has the record). The scene schema has already checked the
     profile, the joints and the levels. Returns the loaded ground motion."""
     validate_laws(scene)
-    validate_safety(scene)        # uplift, foundation (issue #13)
+    validate_safety(scene)        # uplift, foundation
     try:
-        return load_ground_motion(scene)
+        gm = load_ground_motion(scene)
     except (OSError, ValueError, KeyError, IndexError) as e:
         msg = str(e)
         if msg.startswith("ground_motion."):
             raise ValueError(msg) from None
         raise ValueError(f"ground_motion.record = {scene.ground_motion.record!r}: {msg}") \
             from None
+    start, end = scene.ground_motion.start, float(gm.t[-1])
+    if start >= end:
+        raise ValueError(f"ground_motion.start = {start!r}: at or past the end of the record "
+                         f"({gm.label}: t = {float(gm.t[0]):g}-{end:g} s); allowed: "
+                         f"[0, {end:g}) s")
+    return gm
+
+
+def window_note(scene, gm) -> str | None:
+    """A note when the analysed window [start, start + duration] runs past the record's end
+    (the ground is at rest after it: zero acceleration), else None."""
+    a = scene.ground_motion.start
+    b = a + scene.time.duration
+    end = float(gm.t[-1])
+    if b > end + 1e-9 * max(1.0, end):
+        return (f"the analysed window {a:g}-{b:g} s runs past the end of the record ({end:g} "
+                f"s): the last {b - end:.4g} s have no ground motion (the ground at rest); "
+                "set time.duration (or ground_motion.start) to stay inside the record")
+    return None
 
 
 def describe(scene) -> dict:
@@ -67,7 +87,8 @@ def describe(scene) -> dict:
                 "ground_motion": {"record": scene.ground_motion.record, "label": gm.label,
                                   "synthetic": bool(gm.synthetic),
                                   "peak_g": [float(v) for v in gm.peak_g()],
-                                  "dt": gm.dt, "duration": gm.duration},
+                                  "dt": gm.dt, "duration": gm.duration,
+                                  "window_note": window_note(scene, gm)},
                 "time": f"{n} steps of {t.dt} s to {t.duration} s, Newmark beta "
                         f"{t.newmark_beta}, gamma {t.newmark_gamma}",
                 "formulation": FORMULATION,

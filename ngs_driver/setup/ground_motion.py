@@ -9,7 +9,7 @@ No digitised 1967 Koyna accelerogram is in public sources, so the default record
 (``ngs_driver/data/koyna_synthetic.txt``) is SYNTHETIC: Clough-Penzien filtered Gaussian white
 noise under a Jennings-type envelope, baseline corrected and scaled to the peaks usually quoted
 for Koyna 1967 (0.49 g horizontal / stream, 0.34 g vertical). It is *not* the recorded motion.
-See docs/decisions.md §5 for every choice with its reason and source.
+See docs/model.md §9 for every choice with its reason and source.
 
 Sign/axis convention: ``ax`` is the horizontal (stream, x) ground acceleration and ``ay`` the
 vertical (y, up) ground acceleration, both in m/s^2. Motion starts at rest (v = d = 0 at t[0]).
@@ -552,7 +552,7 @@ def significant_duration(a: np.ndarray, dt: float, lo: float = 0.05, hi: float =
 # --------------------------------------------------------------------------------------------
 @dataclass(frozen=True)
 class KoynaSyntheticParams:
-    """Documented parameters of the synthetic Koyna-like motion (see docs/decisions.md §5).
+    """Documented parameters of the synthetic Koyna-like motion (see docs/model.md §9.1).
 
     Filter: Clough-Penzien = Kanai-Tajimi (fg, zg) x high-pass (ff, zf), plus a 4-pole
     Butterworth-magnitude f_max cut-off (Hanks 1982). Envelope: Jennings, Housner & Tsai (1968)

@@ -59,6 +59,9 @@ def validate_laws(scene) -> None:
     for k, (name, tbl) in enumerate(scene.joint_tables()):
         where = "interface" if name == "base" else f"joints[{k - 1}]"
         try:
+            if tbl.friction < 0:     # the friction part is built only for f > 0: check it
+                from interfacelaw import FrictionParams
+                FrictionParams(f=tbl.friction)
             law = build_law(tbl)
             build_scaling(tbl, law)
         except (ValueError, TypeError) as e:

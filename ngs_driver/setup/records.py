@@ -5,7 +5,7 @@ import pathlib
 from dataclasses import replace
 
 DEFAULT_RECORDS = ("synthetic", "default")
-FEMA_PREFIX = "fema-p695:"   # FEMA P695 record sets (PEER NGA), ngs_driver/studies/fema.py
+FEMA_PREFIX = "fema-p695:"   # FEMA P695 record sets (PEER NGA), setup/fema_records.py
 
 
 
@@ -18,7 +18,7 @@ def load_ground_motion(scene):
     vertical = getattr(g, "vertical", "record")
     if rec.startswith(FEMA_PREFIX):
         # PEER-processed records (filtered, baseline corrected by PEER): no second baseline
-        from ..studies.fema import load_record
+        from .fema_records import load_record
         gm = load_record(rec, vertical)
     elif rec in DEFAULT_RECORDS:
         gm = gmod.load_default()

@@ -1,6 +1,6 @@
 """Uplift (pore pressure) on the joints, as the dam-safety standards draw it (no NGSolve).
 
-Issue #13; docs/decisions.md "Safety: uplift, foundations, sliding". Coordinates along a joint:
+docs/safety.md. Coordinates along a joint:
 s = distance from its upstream end (the heel for the base), L = its length. Heads are metres of
 water above the joint: headwater h_h = max(reservoir.level - y, 0), tailwater
 h_t = max(uplift.tailwater - y, 0); pressures p = rho_w g h [Pa], compression of the joint's

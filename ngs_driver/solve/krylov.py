@@ -9,7 +9,7 @@ the earlier LU (the second round of issue #15): with the paper's law every point
 moves at every step, so the earlier LU is a good preconditioner but not a contraction fast
 enough for refinement, which then gave up and factorised in most solves of the strong
 motion; GMRES converges in a few iterations on the same preconditioned operator
-(docs/decisions.md §6, measured in BENCHMARKS.md).
+(docs/solver.md §2.3, measured in CHANGELOG.md).
 
 Kernels only (numba, no checks, no allocation): the caller owns the work arrays.
 ``lu`` is LAPACK getrf's output of an (r, r) matrix, passed as its transpose ``luT`` (C order)

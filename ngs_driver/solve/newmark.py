@@ -9,7 +9,7 @@ Equation (relative formulation, free DOFs, plane strain):
 B (2 npts x ndof, CSR): gap of point p  g_p = (g_N, g_T) = B[2p:2p+2] @ u;  W = diag(w) with w
 (npts,) the integration weights; t = law.evaluate(g) the interface traction (interfacelaw).
 
-Condensed method (docs/decisions.md §6).  K0 = diag(k_N, k_T) the law's initial elastic
+Condensed method (docs/solver.md §2).  K0 = diag(k_N, k_T) the law's initial elastic
 stiffness (frozen at construction / ``set_law(..., refactor=True)``), phi(g) = t(g) - K0 g the
 nonlinear correction (zero at every point still in its initial elastic state).  For the step
 size h the effective matrix
@@ -29,7 +29,7 @@ Newton direction comes from the r x r system Y^-1 + G^T Dw G by the push-through
 (``_jac_solve``), solved by GMRES on an earlier LU or factorised. A^-1 rhs
 is split in its triangular halves so that a nonlinear step costs one forward and one backward
 sparse solve plus the closure of the interface DOFs (``SparseFactor.restrict``;
-docs/decisions.md §6, issue #15).
+docs/solver.md §2.4, issue #15).
 """
 from __future__ import annotations
 
@@ -60,7 +60,7 @@ __all__ = ["NewmarkSolver", "StepReport", "SolverError", "SparseFactor"]
 # which the system is factorised afresh; after a solve that needed more than _GMRES_REFRESH
 # iterations the LU is dropped so that the next solve factorises (a factorisation costs
 # ~15 iterations on Koyna). Chosen on 4 057 captured solves of the 0.2x Koyna run's first
-# 3 s (docs/decisions.md §6): per solve ~230 us against ~700 us by refinement on the LU
+# 3 s (docs/solver.md §2.3, CHANGELOG.md): per solve ~230 us against ~700 us by refinement on the LU
 # of K = I + P Y (the second round), factorisations 408 against 2 008.
 _GMRES_TOL = 1e-13
 _GMRES_MAX = 16
@@ -438,7 +438,7 @@ class NewmarkSolver:
     def _law_dt(self, h):
         """The step's duration for rate-dependent laws (damage form "rate"); the static
         solve (h None) stands for the slow build-up of dead load and reservoir, taken as
-        STATIC_DURATION (docs/decisions.md §6)."""
+        STATIC_DURATION (docs/solver.md §7)."""
         return STATIC_DURATION if h is None else h
 
     def set_initial(self, u=None, v=None, a=None, f=None):
@@ -1075,3 +1075,35 @@ class NewmarkSolver:
         el = 0.5 * self.u @ (self.K @ self.u)
         el += 0.5 * np.sum(self.w[:, None] * self.t * self.g)
         return kin + el
+
+    # ------------------------------------------------------------------ public hooks
+    # What other modules may use of the solver besides its committed fields (u, v, a, f, time,
+    # state, t, g), step/static and ``ext``: the step's coefficients, the interface force, and
+    # the committed internals that a bitwise restart (checkpoint) or a repeated step (the uplift
+    # of the crack state a step ends in) must carry.
+    def coefficients(self, h):
+        """Newmark coefficients (c0, c1, c2, c3, c4, c5) of a step of size h:
+        c0 = 1/(beta h^2), c1 = gamma/(beta h), c2 = 1/(beta h), c3 = 1/(2 beta) - 1,
+        c4 = gamma/beta - 1, c5 = h (gamma/(2 beta) - 1)."""
+        return self._coeffs(h)
+
+    def internal_force(self, t):
+        """B^T W t: the free-DOF force of the interface tractions t (npts, 2)."""
+        return self._fint(t)
+
+    def checkpoint_state(self) -> dict:
+        """Copies of the committed internals a bitwise restart needs besides u, v, a, f, time
+        and the interface state: traction t, gap g, the nonlinear correction phi and the
+        active-point mask."""
+        d = {"t": self.t.copy(), "g": self.g.copy(), "phi": self._phi.copy(),
+             "active": self._active.copy()}
+        if self.g_offset is not None:      # a joint paired anew (finite sliding)
+            d["g_offset"] = self.g_offset.copy()
+        return d
+
+    def restore_state(self, d):
+        """Set the committed internals from ``checkpoint_state()`` (copies are taken)."""
+        self.t = np.array(d["t"])
+        self.g = np.array(d["g"])
+        self._phi = np.array(d["phi"])
+        self._active = np.array(d["active"])

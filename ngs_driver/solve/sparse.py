@@ -1,6 +1,6 @@
 """Sparse direct factorisation for the interface solver: SuperLU (scipy.sparse.linalg.splu) for
 the factorisation, and numba triangular solves on its L and U factors (SuperLU's own solve is
-2-4x slower from Python on these matrices; measured in docs/decisions.md §6).
+2-4x slower from Python on these matrices; docs/solver.md §5).
 
     Pr A Pc = L U     (scipy's convention: Pr[perm_r[i], i] = 1, Pc[i, perm_c[i]] = 1)
 """
@@ -298,7 +298,7 @@ class SparseFactor:
             U.sort_indices()
             # int32 pointers (nnz < 2^31 here); unsigned row indices, 16-bit while n < 2^16:
             # no negative-index wraparound test in the compiled loops (each half ~1.4x faster
-            # than int32 on Koyna, measured; docs/decisions.md §6) and fewer bytes to stream
+            # than int32 on Koyna, measured; docs/solver.md §5) and fewer bytes to stream
             ix = _index_dtype(A.shape[0])
             self._L = (L.indptr.astype(np.int32), L.indices.astype(ix), L.data)
             self._pr = lu.perm_r.astype(np.int64)
@@ -366,15 +366,6 @@ class SparseFactor:
         qout = self._pc[dofs]
         self._part = dict(dofs=dofs, rin=rin, fcols=fcols, Ur=Ur, qout=qout, brows=brows)
         return self
-
-    def partial_fraction(self) -> tuple[float, float]:
-        """Share of L's and of U's entries that the partial forward / backward solves visit."""
-        pt = self._part
-        Lp = self._L[0]
-        Urp = pt["Ur"][0]
-        f = float(np.sum(Lp[pt["fcols"] + 1] - Lp[pt["fcols"]])) / self._L[2].size
-        b = float(np.sum(Urp[pt["brows"] + 1] - Urp[pt["brows"]])) / pt["Ur"][2].size
-        return f, b
 
     def forward(self, b):
         """z = L^-1 Pr b (the first half of ``solve``; permuted space)."""

@@ -13,7 +13,7 @@ from __future__ import annotations
 import argparse
 import sys
 
-from . import fema
+from ..setup import fema_records as fema
 
 
 def add_ida_parser(sub):

@@ -13,7 +13,7 @@
 3. Each run is one Dask task (``execute``) that writes ``DIR/runs/<id>/`` (the run's own
    outputs, ``summary.json`` written last) and, last, ``result.json`` (atomic). A run with a
    ``result.json`` is finished and skipped by the next call (resume). A task whose worker dies
-   is re-run by Dask from the start (fresh, no checkpoint: the demand probe needs every step).
+   is re-run by Dask from the start (fresh, no checkpoint: the demands need every step's history).
    A physical failure -- ``SolverError`` after all step cuts -- is a result (``status =
    "failed"`` with its message), never retried; any other exception is retried by Dask
    (``retries``) and, if it persists, reported as ``status = "error"`` without ``result.json``
@@ -25,21 +25,19 @@
 """
 from __future__ import annotations
 
-import contextlib
 import csv
-import hashlib
 import io
 import json
 import math
 import os
 import pathlib
 import socket
-import threading
 import time
 
 import numpy as np
 
-from . import fema
+from ..setup import fema_records as fema
+from . import sweep
 from .fragility import DEFAULT_LIMIT_STATES, exceedances, fit_lognormal, probability
 from .im import IM_LABEL, IMS
 
@@ -66,17 +64,12 @@ WINDOWS = ("scene", "record")
 
 
 def scene_hash(scene, window: str = "scene") -> str:
+    """``sweep.scene_hash`` of the base scene without the record and scale the study sets per
+    run, and with the analysed window."""
     d = scene.to_dict()
     if window != "scene":
         d["_window"] = window          # the analysed window changes every run
-    for k in ("name", "description", "output"):
-        d.pop(k, None)
-    gm = dict(d.get("ground_motion", {}))
-    gm.pop("record", None)
-    gm.pop("scale", None)
-    d["ground_motion"] = gm
-    txt = json.dumps(d, sort_keys=True, separators=(",", ":"))
-    return hashlib.sha256(txt.encode()).hexdigest()[:10]
+    return sweep.scene_hash(d, drop=("ground_motion.record", "ground_motion.scale"))
 
 
 def run_id(rset: str, n: int, comp: str, im: str, level: float, h: str) -> str:
@@ -129,7 +122,7 @@ def _check_inputs(suite, records, components, im, levels, workers, scheduler):
                               "starts a local cluster, --scheduler ADDR uses a running one")
     if workers is not None and not (isinstance(workers, int) and workers >= 1):
         raise StudyInputError(f"--workers {workers!r}: not allowed; give an integer >= 1")
-    fema._require()          # MissingRecordsPackage (an ImportError) with the install command
+    fema.require_package()          # MissingRecordsPackage (an ImportError) with the install command
     sets = fema.SUITES[suite]
     available = [(s, n) for s in sets for n in fema.records_of(s)]
     if records is None:
@@ -186,54 +179,25 @@ def _run_scene(base, address, scale, window: str = "scene"):
 # ---------------------------------------------------------------------------------------------
 # the task (runs on a worker)
 # ---------------------------------------------------------------------------------------------
-_PROBE_LOCK = threading.Lock()
-
-
 def _base_slice(scene, model):
     """The base joint's points in the interface vector (lift joints follow it); all points
     when the model has a single interface."""
     try:
-        from ..run.joints import JointSet
-        return JointSet(scene, model.interface).slices[0]
+        from ..run.joints import Joints
+        return Joints(scene, model.interface).slices[0]
     except (ImportError, AttributeError):
         return slice(None)
 
 
-@contextlib.contextmanager
-def _probe(model, base=slice(None)):
-    """Record the mean base slip and the crest displacement after every accepted step.
-
-    ``run/dam.py`` imports ``NewmarkSolver`` from ``solve.newmark`` when it runs; we put a
-    subclass that records after ``static``/``step`` there for the duration of the run. Its
-    per-step history has no slip column (yet), and the demands need the maximum over time."""
-    import ngs_driver.solve.newmark as nm
-    cls = nm.NewmarkSolver
-    w = np.asarray(model.interface.w, float)[base]
-    W = float(w.sum())
-    cx = model.crest_dofs[0]
-    rec = {"static_slip": None, "slip": [], "crest_ux": []}
-
-    class _Probe(cls):
-        def static(self, *a, **k):
-            # the (last) static state before the shaking: later static solves (the
-            # post-earthquake check of SAFETY) must not move the reference
-            r = super().static(*a, **k)
-            if not rec["slip"]:
-                rec["static_slip"] = float(np.dot(w, self.g[base, 1]) / W)
-            return r
-
-        def step(self, *a, **k):
-            r = super().step(*a, **k)
-            rec["slip"].append(float(np.dot(w, self.g[base, 1]) / W))
-            rec["crest_ux"].append(float(self.u[cx]))
-            return r
-
-    with _PROBE_LOCK:
-        nm.NewmarkSolver = _Probe
-        try:
-            yield rec
-        finally:
-            nm.NewmarkSolver = cls
+def _probe(a) -> dict:
+    """The histories the demands need from an analysis ``a`` (``run.prepare``): the mean base
+    slip of the static state and after every step, and the crest displacement (the summary
+    keeps only their extremes)."""
+    if a.history is None:                  # the static solve failed
+        return {"static_slip": None, "slip": [], "crest_ux": []}
+    H = a.history.cols
+    return {"static_slip": a.static_info["joints"]["base"]["slip_mean"],
+            "slip": H["base_slip_mean"].tolist(), "crest_ux": H["crest_ux"].tolist()}
 
 
 def _flat(prefix, d, out, depth=0):
@@ -274,7 +238,7 @@ def demand_measures(summary: dict | None, rec: dict, model, base=slice(None)) ->
     })
     d["full_base_failure"] = int(bool(stopped) or
                                  res["crack_length_total_max"] >= base_len * (1 - 1e-9))
-    # SAFETY (issue #13) when present: per joint min FS, slip, post-earthquake FS ...
+    # SAFETY when present: per joint min FS, slip, post-earthquake FS ...
     safety = summary.get("safety") or {}
     _flat("safety", safety.get("joints", {}), d)
     for k, v in (summary.get("post_earthquake") or {}).items():
@@ -287,14 +251,14 @@ def demand_measures(summary: dict | None, rec: dict, model, base=slice(None)) ->
 
 def execute(spec: dict, root: str) -> dict:
     """One IDA run (a Dask task). Returns the result dict, also written to result.json."""
-    from ..out.files import atomic_write_json
+    from ..post.files import atomic_write_json
     from ..scene import from_dict
     from ..solve.newmark import SolverError
 
-    d = pathlib.Path(root) / "runs" / spec["id"]
-    res_path = d / "result.json"
-    if res_path.exists():                       # finished by an earlier attempt
-        return json.loads(res_path.read_text())
+    d = sweep.run_dir(root, spec)
+    earlier = sweep.finished(d)
+    if earlier is not None:                     # finished by an earlier attempt
+        return earlier
     d.mkdir(parents=True, exist_ok=True)
     started = d / "started.json"
     attempts = 1
@@ -309,32 +273,36 @@ def execute(spec: dict, root: str) -> dict:
     scene = from_dict(spec["scene"])
     t0 = time.perf_counter()
     from ..fe.model import build_from_scene
-    from ..run.dam import run
+    from ..run import prepare
     model = build_from_scene(scene)
     base = _base_slice(scene, model)
     status, message, summary = "ok", None, None
-    with _probe(model, base) as rec:
-        try:
-            summary = run(scene, d, progress=False, plots=False, model=model,
-                          log=lambda *a, **k: None)
-        except SolverError as e:               # physical: recorded, not retried
-            status, message = "failed", str(e)
-    demands = demand_measures(summary, rec, model, base)
+    a = prepare(scene, d, progress=False, plots=False, model=model, log=lambda *a, **k: None)
+    try:
+        a.static()
+        while a.step():
+            pass
+    except SolverError as e:                   # physical: recorded, not retried
+        status, message = "failed", str(e)
+    finally:
+        a.close()
+    if status == "ok":
+        summary = a.finish()
+    demands = demand_measures(summary, _probe(a), model, base)
     result = {k: v for k, v in spec.items() if k != "scene"}
     result.update({"status": status, "message": message, "demands": demands,
                    "wall_s": time.perf_counter() - t0, "attempts": attempts,
                    "worker": worker, "finished": time.time()})
     if summary is not None:
         result["ground_motion"] = summary["ground_motion"]
-    atomic_write_json(res_path, result)
-    return result
+    return sweep.write_result(d, result)
 
 
 def _worker_info():
     import importlib.util
     import ngs_driver
-    from ngs_driver.studies import fema as f
-    f._require()
+    from ngs_driver.setup import fema_records as f
+    f.require_package()
     return {"pid": os.getpid(), "host": socket.gethostname(),
             "ngs_driver": str(pathlib.Path(ngs_driver.__file__).parent),
             "ngsolve": importlib.util.find_spec("ngsolve") is not None,
@@ -393,6 +361,9 @@ def run_ida(scene, *, suite: str, im: str, levels, out, records=None, components
     """The IDA (see the module doc). Returns {'rows', 'fragility', 'submitted', 'skipped',
     'errors', 'files'}. ``client``: an existing dask Client (tests)."""
     out = pathlib.Path(out)
+    if out.exists() and not out.is_dir():
+        raise StudyInputError(f"--out = {str(out)!r}: is an existing file; allowed: a folder "
+                              "(new, or the study folder of an earlier call)")
     levels = [float(v) for v in levels]
     chosen, comps = _check_inputs(suite, records, components, im, levels, workers, scheduler)
     if failed not in ("exceed", "exclude"):
@@ -426,16 +397,7 @@ def run_ida(scene, *, suite: str, im: str, levels, out, records=None, components
                 plan.append({"id": run_id(rset, n, c, im, lv, h), "set": rset, "record": n,
                              "component": c, "address": fema.address(rset, n, c), "im": im,
                              "level_g": lv, "scene_hash": h})
-    done, pending = {}, []
-    for p in plan:
-        rp = out / "runs" / p["id"] / "result.json"
-        if rp.exists():
-            try:
-                done[p["id"]] = json.loads(rp.read_text())
-                continue
-            except (OSError, ValueError):
-                pass
-        pending.append(p)
+    done, pending = sweep.Sweep(out, execute).plan(plan)
     say(f"IDA {base.name} [{h}] suite {suite}: {len(plan)} runs "
         f"({len(chosen)} records x {len(comps)} components x {len(levels)} levels), "
         f"{len(done)} finished earlier (skipped), {len(pending)} to run")
@@ -448,12 +410,17 @@ def run_ida(scene, *, suite: str, im: str, levels, out, records=None, components
             T1 = T1_info["T1"]
             say(f"T1 = {T1:.4f} s (f1 = {T1_info['f1_hz']:.4f} Hz, modal analysis, bonded "
                 "interface)")
+        from ..setup import validate
         from .im import scale_factor
         cache = {}
         for p in pending:
             key = p["address"]
             if key not in cache:
                 unit = _run_scene(base, key, 1.0, window)
+                try:
+                    validate(unit)          # the window inside the record, as --dry-run
+                except ValueError as e:
+                    raise StudyInputError(f"run {p['id']}: {e}") from None
                 cache[key] = scale_factor(unit, im, 1.0, T1)[1]
                 w = _window_note(unit)
                 if w:
@@ -476,7 +443,7 @@ def run_ida(scene, *, suite: str, im: str, levels, out, records=None, components
         cl, cluster = (client, None) if client is not None else _connect(workers, scheduler, say)
         out.mkdir(parents=True, exist_ok=True)
         if T1_info is not None:
-            from ..out.files import atomic_write_json
+            from ..post.files import atomic_write_json
             atomic_write_json(out / f"modal_{h}.json", T1_info)
         try:
             try:
@@ -548,40 +515,34 @@ def _first_period_cached(base, out, h):
 
 
 def _submit(client, pending, out, done, say, progress):
-    from dask.distributed import as_completed
+    """The pending runs on the Dask client (``sweep.Sweep``: result.json written last, a task
+    that raises retried RETRIES times by Dask); one log line per finished run."""
     from tqdm import tqdm
 
-    from ..out.files import atomic_write_json
-    futs = {}
-    for p in pending:
-        f = client.submit(execute, p, str(out.resolve()), key=f"ida-{p['id']}",
-                          retries=RETRIES, pure=False)
-        futs[f] = p
-    errors = []
-    bar = tqdm(total=len(futs), disable=None if progress else True, unit="run", desc="IDA",
+    n = len(pending)
+    bar = tqdm(total=n, disable=None if progress else True, unit="run", desc="IDA",
                dynamic_ncols=True)
-    k = 0
+    count = [0]
+
+    def ok(spec, r):
+        count[0] += 1
+        bar.update(1)
+        say(f"[{count[0]}/{n}] " + _line(r))
+
+    def bad(spec, msg):
+        count[0] += 1
+        bar.update(1)
+        say(f"[{count[0]}/{n}] {spec['id']}: ERROR {msg} (not recorded; the next call "
+            "retries it)")
+
+    sw = sweep.Sweep(out, execute, client=client, retries=RETRIES, on_result=ok,
+                     on_error=bad, key_prefix="ida")
     try:
-        for f in as_completed(list(futs)):
-            p = futs[f]
-            k += 1
-            try:
-                r = f.result()
-            except Exception as e:  # noqa: BLE001 -- a bug or a worker lost too often
-                errors.append({"id": p["id"], "message": f"{type(e).__name__}: {e}"})
-                bar.update(1)
-                say(f"[{k}/{len(futs)}] {p['id']}: ERROR {type(e).__name__}: {e} "
-                    "(not recorded; the next call retries it)")
-                continue
-            rp = out / "runs" / p["id"] / "result.json"
-            if not rp.exists():       # a worker without the shared file system
-                atomic_write_json(rp, r)
-            done[p["id"]] = r
-            bar.update(1)
-            say(f"[{k}/{len(futs)}] " + _line(r))
+        res = sw.run(pending)
     finally:
         bar.close()
-    return len(futs), errors
+    done.update(res["results"])
+    return n, [{"id": i, "message": m} for i, m in res["errors"].items()]
 
 
 def _fmt(v, scale=1.0, spec=".3g"):
@@ -626,7 +587,7 @@ def _error_row(p, e) -> dict:
 # outputs
 # ---------------------------------------------------------------------------------------------
 def write_outputs(out, rows, im, failed, plots, study) -> list[str]:
-    from ..out.files import atomic_write_json, atomic_write_text
+    from ..post.files import atomic_write_json, atomic_write_text
     out = pathlib.Path(out)
     keys = list(ROW_KEYS) + sorted({k for r in rows for k in r} - set(ROW_KEYS))
     buf = io.StringIO()
@@ -663,7 +624,7 @@ def _plots(out, rows, frag, im) -> list[str]:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from ..out.files import atomic_write_bytes
+    from ..post.files import atomic_write_bytes
 
     def save(fig, name):
         b = io.BytesIO()

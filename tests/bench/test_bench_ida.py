@@ -1,4 +1,4 @@
-"""IDA throughput (issue #14): runs per hour with 1 worker and with all cores, the scaling
+"""IDA throughput: runs per hour with 1 worker and with all cores, the scaling
 efficiency, the cost of one run of the default scene, and from these an estimate of the wall
 time of the FEMA P695 far-field suite (22 records x 2 components) x 10 levels on 1, 2, 64 cores.
 
@@ -76,7 +76,7 @@ def test_bench_ida_default_scene_run(benchmark, request, tmp_path):
     """One task of a far-field IDA on the default scene, in process (no Dask): koyna, 10 s."""
     _enabled(request)
     from ngs_driver.scene import load_scene
-    from ngs_driver.studies import fema
+    from ngs_driver.setup import fema_records as fema
     from ngs_driver.studies.ida import _run_scene, execute
     from ngs_driver.studies.im import scale_factor
     base = load_scene("koyna")

@@ -1,4 +1,4 @@
-"""Koyna benchmarks of issue #7 (per implicit step on the Koyna dam-foundation mesh): the
+"""Koyna benchmarks (per implicit step on the Koyna dam-foundation mesh): the
 condensed solver with the scene's nonlinear interface law (strong part of the record), the
 re-factorising full Newton, our solver on a linear (elastic-branch) interface, and OpenSeesPy
 linear on the same mesh (skipped without openseespy: `pip install -e .[bench]`).
@@ -27,20 +27,27 @@ def _enabled(request):
 
 
 def _setup(request):
-    """(scene, model, (a0, a1)): default Koyna mesh with make bench, tiny mesh otherwise."""
+    """(--set overrides, model): default Koyna mesh with make bench, tiny mesh otherwise; the
+    benchmark scene has no hydrodynamic water (OpenSees models dam and rock only)."""
     key = _enabled(request)
     if key not in _CACHE:
-        # no reservoir: the scene of issues #7 and #15 (and OpenSees models dam and rock only)
-        sc = bk.scene(["reservoir.model=none"] + ([] if key else TINY))
-        m = bk.model_of(sc)
-        _CACHE[key] = (sc, m, bk.rayleigh(m, sc))
+        sets = [] if key else list(TINY)
+        _CACHE[key] = (sets, bk.model_of(bk.scene(sets)))
     return _CACHE[key]
 
 
-def _warm_solver(sc, m, a0a1, law, method, warm):
-    fs, fk, _, _ = bk.loads(m, sc, 400)
-    s = bk.make_solver(m, law, a0a1, method)
-    bk.start_solver(s, fs, fk)
+def _analysis(sets, m, linear=False):
+    """The run's set-up (run.prepare, static state solved) of the benchmark scene, 400 steps;
+    linear: the elastic-branch law of bench_koyna.linear_sets."""
+    if linear:
+        sets = list(sets) + bk.linear_sets(bk.scene(sets))
+    return bk.analysis(bk.scene(sets, n_steps=400), m)
+
+
+def _warm_solver(sets, m, method, warm, linear=False):
+    a = _analysis(sets, m, linear)
+    s = a.solver if method == "condensed" else bk.variant(a.solver, method)
+    fk = bk.load(a)
     for k in range(1, warm + 1):
         s.step(fk(k))
     return s, fk
@@ -64,18 +71,18 @@ def _bench_steps(benchmark, s, fk, warm, rounds, m):
 
 def test_bench_koyna_condensed_step(benchmark, request):
     """Condensed solver, scene law (alpha = 2), strong part of the record (t = 2 s on)."""
-    sc, m, a0a1 = _setup(request)
+    sets, m = _setup(request)
     warm = 20 if _enabled(request) else 1
-    s, fk = _warm_solver(sc, m, a0a1, bk.scene_law(sc), "condensed", warm)
+    s, fk = _warm_solver(sets, m, "condensed", warm)
     its = _bench_steps(benchmark, s, fk, warm, 100 if _enabled(request) else 1, m)
     assert np.isfinite(s.u[m.crest_dofs[0]]) and min(its) >= 1
 
 
 def test_bench_koyna_full_step(benchmark, request):
     """Full re-factorising Newton (reference), same law and record; few rounds (~1 s/step)."""
-    sc, m, a0a1 = _setup(request)
+    sets, m = _setup(request)
     warm = 2 if _enabled(request) else 1
-    s, fk = _warm_solver(sc, m, a0a1, bk.scene_law(sc), "full", warm)
+    s, fk = _warm_solver(sets, m, "full", warm)
     its = _bench_steps(benchmark, s, fk, warm, 5 if _enabled(request) else 1, m)
     assert min(its) >= 1
 
@@ -83,8 +90,8 @@ def test_bench_koyna_full_step(benchmark, request):
 def test_bench_koyna_linear_step(benchmark, request):
     """Our condensed solver with an interface that stays on its elastic branch (k0 of the
     scene): the same work as a linear Newmark step (one solve)."""
-    sc, m, a0a1 = _setup(request)
-    s, fk = _warm_solver(sc, m, a0a1, bk.linear_law(sc), "condensed", 1)
+    sets, m = _setup(request)
+    s, fk = _warm_solver(sets, m, "condensed", 1, linear=True)
     _bench_steps(benchmark, s, fk, 1, 200 if _enabled(request) else 1, m)
     assert s.history[-1].n_active == 0
 
@@ -96,11 +103,11 @@ def test_bench_koyna_opensees_linear_step(benchmark, request):
         ops = bk.import_opensees()
     except Exception as exc:  # noqa: BLE001
         pytest.skip(f"openseespy not usable: {exc!r}")
-    sc, m, a0a1 = _setup(request)
-    law = bk.scene_law(sc)
-    fs, fk, ax, ay = bk.loads(m, sc, 400)
-    crest, nfree, _, _ = bk.build_opensees(ops, m, sc, a0a1, law.cohesive.k_normal,
-                                           law.cohesive.k_tangential, fs, ax, ay, "BandSPD")
+    sets, m = _setup(request)
+    a = _analysis(sets, m)
+    crest, nfree, _, _ = bk.build_opensees(ops, m, a.scene, bk.a0a1_of(a),
+                                           a.reference["k_normal"], a.reference["k_tangential"],
+                                           a.f_static, a.ax[:401], a.ay[:401], "BandSPD")
     assert nfree == m.nfree
     ops.analyze(1, bk.DT)                         # factorisation outside the timing
 
@@ -117,15 +124,14 @@ def test_bench_koyna_opensees_linear_step(benchmark, request):
 
 @pytest.mark.parametrize("kind", ["nonlinear", "linear"])
 def test_bench_koyna_02_step(benchmark, request, kind):
-    """Issue #15 target 2 per step: the record at 0.2x from its strong part (t = 2 s),
+    """Speed target 2 per step: the record at 0.2x from its strong part (t = 2 s),
     nonlinear (scene law, alpha = 2: every point slightly damaged, all active) against the same
     steps with an elastic-branch interface; the ratio of the two medians is the per-step cost
     of the interface nonlinearity (verification/bench_koyna.py --parts 5 times whole runs)."""
-    sc0, m, a0a1 = _setup(request)
-    sc = bk.scene(["ground_motion.scale=0.2", "reservoir.model=none"] + ([] if _enabled(request) else TINY))
-    law = bk.scene_law(sc) if kind == "nonlinear" else bk.linear_law(sc)
+    sets, m = _setup(request)
     warm = 20 if _enabled(request) else 1
-    s, fk = _warm_solver(sc, m, a0a1, law, "condensed", warm)
+    s, fk = _warm_solver(sets + ["ground_motion.scale=0.2"], m, "condensed", warm,
+                         linear=kind == "linear")
     its = _bench_steps(benchmark, s, fk, warm, 100 if _enabled(request) else 1, m)
     benchmark.extra_info.update(kind=kind, stats=dict(s.stats))
     if kind == "nonlinear":

@@ -1,9 +1,9 @@
-"""Throughput of the interface law (issues #2, #15): points per second at n = 10^6 (2D and 3D,
+"""Throughput of the interface law: points per second at n = 10^6 (2D and 3D,
 full law, states spread over all branches). `make bench` runs it; `make test` only collects and
 runs each benchmark body once (--benchmark-disable), with a small n so it cannot rot.
 
 Same-process comparison (kernel / copy of the same bytes, medians of interleaved rounds, and
-optionally a kernel of an earlier revision — the numbers of BENCHMARKS.md, issue #15):
+optionally a kernel of an earlier revision — the numbers of BENCHMARKS.md):
 
     git show REV:interfacelaw/_kernels.py > /tmp/kernels_before.py      # optional
     python tests/bench/test_bench_law.py [--rounds 15] [--before /tmp/kernels_before.py]

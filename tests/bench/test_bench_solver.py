@@ -1,10 +1,10 @@
-"""Benchmarks of ngs_driver.solve.newmark (issue #7): time per implicit step with the nonlinear
+"""Benchmarks of ngs_driver.solve.newmark: time per implicit step with the nonlinear
 interface, condensed vs full Newton, at three mesh sizes of the block-on-block toy model
 (ngs_driver/solver_toymodel.py; ~0.9k, 3.3k, 12.5k DOFs) and at 128 vs 512 interface points.
 
 `make bench` runs them (pytest-benchmark, medians in .benchmarks.json); `make test` runs each
 body once with --benchmark-disable on the smallest mesh so it cannot rot.
-Numbers and discussion: docs/decisions.md §6.
+Numbers and discussion: docs/solver.md, BENCHMARKS.md.
 """
 import numpy as np
 import pytest
@@ -87,8 +87,7 @@ def test_bench_full_step(benchmark, request, h):
 @pytest.mark.parametrize("ng", [2, 8])
 def test_bench_condensed_points(benchmark, request, ng):
     """Per-step time against interface points at 12.5k DOFs: 128 and 512 points (2 and 8 Gauss
-    points per segment: the Newton system is r x r, r = the relative interface DOFs, for both;
-    issue #15)."""
+    points per segment: the Newton system is r x r, r = the relative interface DOFs, for both)."""
     if not _enabled(request):
         pytest.skip("large mesh only with make bench")
     m = _model(0.0625, ng)

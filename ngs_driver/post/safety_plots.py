@@ -1,4 +1,4 @@
-"""Safety outputs of a run (issue #13): the FS(t) figure and the run's results.md section."""
+"""Safety outputs of a run: the FS(t) figure and the run's results.md section."""
 from __future__ import annotations
 
 import pathlib
@@ -52,7 +52,7 @@ def plot_sliding_fs(path, H, static_joints, post, title, criterion=1.3):
 
 def safety_markdown(scene, static_joints, post, safety_sum) -> str:
     up = scene.uplift
-    lines = ["## Safety (issue #13; docs/decisions.md \"Safety: uplift, foundations, sliding\")",
+    lines = ["## Safety (docs/safety.md)",
              "",
              f"Foundation: {scene.geometry.foundation}, rock sides {scene.geometry.rock_sides}. "
              f"Uplift: model {up.model}, in_crack {up.in_crack}, tailwater {up.tailwater:g} m"

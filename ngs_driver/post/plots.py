@@ -1,6 +1,6 @@
 """Figures of a run (paper Figs. 8b, 10, 11, 12 style) and VTK, fed arrays and the model.
 
-All files are written atomically (``out.files``).  Plot titles carry the record label
+All files are written atomically (``post.files``).  Plot titles carry the record label
 (with "SYNTHETIC" for the shipped motion).  matplotlib is used with the Agg backend; NGSolve
 is needed only for the mesh/stress plots and VTK (they take the model).
 """
@@ -33,7 +33,7 @@ PNG_COMPRESS_LEVEL = 3
 
 def save_png(fig, path, dpi, bbox_inches=None):
     """``fig.savefig(path, dpi=dpi, bbox_inches=...)`` as a PNG written atomically
-    (``out.files``), zlib level ``PNG_COMPRESS_LEVEL``. Returns the file name."""
+    (``post.files``), zlib level ``PNG_COMPRESS_LEVEL``. Returns the file name."""
     buf = _io.BytesIO()
     fig.savefig(buf, format="png", dpi=dpi, bbox_inches=bbox_inches,
                 pil_kwargs={"compress_level": PNG_COMPRESS_LEVEL})
@@ -143,9 +143,9 @@ def plot_crack_length(path, series, title):
     return _savefig(fig, path)
 
 
-def _triangles(model, box=None, triangles=None):
+def mesh_cells(model, box=None, triangles=None):
     """(P (ntri,3,2), region names, centroids) of the volume elements, optionally in box.
-    triangles: the result of ``_triangles(model)`` if the caller has it."""
+    triangles: the result of ``mesh_cells(model)`` if the caller has it."""
     if triangles is not None:
         P, reg, C = triangles
     else:
@@ -202,9 +202,9 @@ def plot_heel_von_mises(path, model, u, title, magnification=400.0,
                         box=(-3.0, 6.0, -3.0, 3.0), triangles=None):
     """Fig. 12 style: deformed mesh near the heel (magnification 400) with the von Mises
     stress (tripcolor per triangle, both regions), zoom on the first metres.
-    triangles: ``_triangles(model)`` if the caller has it."""
+    triangles: ``mesh_cells(model)`` if the caller has it."""
     gf = model.to_gridfunction(u)
-    P, reg, C = _triangles(model, box=(box[0] - 1, box[1] + 1, box[2] - 1, box[3] + 1),
+    P, reg, C = mesh_cells(model, box=(box[0] - 1, box[1] + 1, box[2] - 1, box[3] + 1),
                            triangles=triangles)
     if P.shape[0] == 0:
         return None
@@ -231,8 +231,8 @@ def plot_heel_von_mises(path, model, u, title, magnification=400.0,
 
 def plot_mesh(path, model, title, triangles=None):
     """Fig. 8b style: the mesh (dam and rock) and a zoom on the heel.
-    triangles: ``_triangles(model)`` if the caller has it."""
-    P, reg, C = _triangles(model, triangles=triangles)
+    triangles: ``mesh_cells(model)`` if the caller has it."""
+    P, reg, C = mesh_cells(model, triangles=triangles)
     fig, axs = subplots(1, 2, figsize=(13, 5.5), gridspec_kw={"width_ratios": [2, 1]})
     cols = {"dam": "tab:blue", "rock": "tab:brown"}
     for a in axs:

@@ -1,23 +1,24 @@
-"""Reservoir outputs of a run (issue #12): hydrodynamic pressure on the upstream face at a few
-elevations over time (``reservoir_pressure.csv`` + ``reservoir_pressure.png``), the hydrodynamic
-force resultant (in the CSV), and VTK of p (``vtk/water_*.vtu``) when VTK output is on.
+"""The reservoir during a run: the fluid stepper attached to the solver, the hydrodynamic
+pressure on the upstream face sampled after every step, and their checkpoints. The files are
+written by ``post.reservoir``.
 
 ``ReservoirRun.create(model, scene, solver, times, ax, ay)`` returns None when the scene has no
-hydrodynamic reservoir.  For compressible acoustic water it attaches the ``FluidStepper`` to the
-solver (the pressure then lives in the solver's steps); for incompressible water and Westergaard
-the pressure is recovered from the accelerations.
+hydrodynamic reservoir.  For compressible acoustic water it attaches the ``FluidStepper``
+(solve/fluid.py) to the solver: the pressure then lives in the solver's steps; for
+incompressible water and Westergaard the pressure is recovered from the accelerations.
 """
 from __future__ import annotations
 
-import csv
-import io
+import json
 import pathlib
 
 import numpy as np
 
-from .files import atomic_savez, atomic_write_text
+from ..post.files import atomic_savez
 
-FRACTIONS = (0.0, 0.25, 0.5, 0.75, 0.9)      # elevations / level at which p is written
+__all__ = ["ReservoirRun", "FRACTIONS"]
+
+FRACTIONS = (0.0, 0.25, 0.5, 0.75, 0.9)      # elevations / level at which p is sampled
 
 
 class ReservoirRun:
@@ -43,22 +44,27 @@ class ReservoirRun:
             self.g = ((self.ac.W.b_x, self.ac.W.b_y) if self.total
                       else (self.ac.g_x, self.ac.g_y))
         if self.ac is not None and not self.ac.incompressible:
-            from ..fe.acoustic_newmark import FluidStepper
+            from ..solve.fluid import FluidStepper
             self.stepper = FluidStepper(self.ac, solver, self.ground, self.g)
         elif self.ac is not None and self.total:
-            from ..fe.acoustic_newmark import GroundPressureLoad
+            from ..solve.fluid import GroundPressureLoad
             GroundPressureLoad(self.ac, solver, self.ground)
         if resume:
             self._resume()
-        if self.ac is not None:
-            self._pts = self.ac.face_stations(FRACTIONS)
-        self._vtk = None
+        self._pts = self.ac.face_stations(FRACTIONS) if self.ac is not None else None
+        self._mips = None
+        self.vtk = None              # post.reservoir.WaterVTK when VTK output is on
 
     @classmethod
     def create(cls, model, scene, solver, times, ax, ay, resume=False, out=None):
         if getattr(model, "reservoir", None) is None:
             return None
         return cls(model, scene, solver, times, ax, ay, resume, out)
+
+    def enable_vtk(self, out):
+        if self.ac is not None:
+            from ..post.reservoir import WaterVTK
+            self.vtk = WaterVTK(out, self.ac)
 
     # -- checkpoints: the water state and the pressure history beside the run's checkpoint ----
     def _state_path(self, k):
@@ -78,7 +84,6 @@ class ReservoirRun:
                 q.unlink()
 
     def _resume(self):
-        import json
         if self.out is None:
             raise ValueError("reservoir: --resume needs the results directory")
         k = int(json.loads((self.out / "checkpoint.json").read_text())["step"])
@@ -93,6 +98,12 @@ class ReservoirRun:
         if self.stepper is not None:
             self.stepper.restore({k[len("fluid_"):]: d[k] for k in d.files
                                   if k.startswith("fluid_")})
+
+    def clear_checkpoints(self):
+        """The run is complete: nothing is left to resume."""
+        if self.out is not None:
+            for q in self.out.glob("reservoir_state_*.npz"):
+                q.unlink()
 
     def ground(self, t):
         """Ground acceleration at time t (linear between the record samples, as the loads)."""
@@ -109,7 +120,9 @@ class ReservoirRun:
             return self.ac.pressure_incompressible(s.a, agx, agy, self.g)
         return None
 
-    def record(self, k, t):
+    def sample(self, k, t):
+        """After step k (time t): the face pressures and the force, the reservoir's checkpoint
+        when one is due, the VTK of p when one is due."""
         s = self.solver
         agx, agy = self.ground(s.time)
         self.rows["t"].append(float(t))
@@ -131,10 +144,9 @@ class ReservoirRun:
             self.rows[f"p_y{y:.2f}"].append(float(v))
         if self.out is not None and self.every > 0 and k > 0 and k % self.every == 0:
             self._save(k)                       # same schedule as run/checkpoint.py
-        sc = self.scene
-        if (p is not None and sc.output.vtk_every > 0 and k % sc.output.vtk_every == 0
-                and getattr(self, "_vtk_dir", None) is not None):
-            self._write_vtk(p, t)
+        ve = self.scene.output.vtk_every
+        if p is not None and ve > 0 and k % ve == 0 and self.vtk is not None:
+            self.vtk.write(p, t)
 
     def _station_values(self, p):
         from ..fe.acoustic import pressure_at
@@ -147,64 +159,13 @@ class ReservoirRun:
         """x-acceleration of the dam at the face stations (elevations self.ys)."""
         from ..fe.acoustic import face_chain
         m = self.model
-        if not hasattr(self, "_mips"):
+        if self._mips is None:
             ch = face_chain(m.mesh, self.level)
             xs = np.interp(self.ys, [c[2] for c in ch], [c[1] for c in ch])
             self._mips = [m.mesh(float(x) + 1e-3, float(min(y, self.level - 1e-3)))
                           for x, y in zip(xs, self.ys)]
         cf = m.displacement_cf(m.to_gridfunction(acc))
         return [float(cf(mp)[0]) for mp in self._mips]
-
-    def enable_vtk(self, out):
-        self._vtk_dir = pathlib.Path(out) / "vtk"
-        self._vtk_dir.mkdir(parents=True, exist_ok=True)
-        self._vtk_files = []
-
-    def _write_vtk(self, p, t):
-        import ngsolve as ngs
-        W = self.ac.W
-        gf = ngs.GridFunction(W.Vp)
-        v = np.zeros(W.Vp.ndof)
-        v[W.free] = p
-        gf.vec.FV().NumPy()[:] = v
-        name = self._vtk_dir / f"water_{len(self._vtk_files):05d}"
-        ngs.VTKOutput(W.Vp.mesh, coefs=[gf], names=["p"], filename=str(name),
-                      subdivision=0).Do()             # p = 0 outside the water
-        self._vtk_files.append(name.name + ".vtu")
-
-    # ------------------------------------------------------------------------------------
-    def write(self, out, plots=True) -> list[str]:
-        out = pathlib.Path(out)
-        for q in out.glob("reservoir_state_*.npz"):       # the run is complete
-            q.unlink()
-        keys = list(self.rows)
-        fh = io.StringIO(newline="")
-        w = csv.writer(fh)
-        w.writerow([k if k in ("t",) else (k + "_Pa" if k.startswith("p_") else k + "_N_per_m")
-                    for k in keys])
-        for i in range(len(self.rows["t"])):
-            w.writerow([f"{self.rows[k][i]:.9g}" for k in keys])
-        atomic_write_text(out / "reservoir_pressure.csv", fh.getvalue())
-        files = ["reservoir_pressure.csv"]
-        if plots and self.rows["t"]:
-            from .plots import save_png, subplots
-            fig, (a1, a2) = subplots(2, 1, figsize=(8, 6), sharex=True)
-            t = np.asarray(self.rows["t"])
-            for y in self.ys:
-                a1.plot(t, np.asarray(self.rows[f"p_y{y:.2f}"]) / 1e3, label=f"y = {y:.1f} m")
-            a1.set_ylabel("hydrodynamic p [kPa]")
-            a1.legend(fontsize=8, ncol=3)
-            a1.set_title(f"reservoir: {self.res.kind}"
-                         + (" (incompressible)" if self.ac is not None and self.ac.incompressible
-                            else "") + f", level {self.level:g} m")
-            a2.plot(t, np.asarray(self.rows["Fx"]) / 1e6)
-            a2.set_ylabel("force on the face Fx [MN/m]")
-            a2.set_xlabel("t [s]")
-            fig.tight_layout()
-            fig.set_layout_engine(None)      # laid out: savefig need not draw twice
-            files.append(save_png(fig, out / "reservoir_pressure.png", dpi=120))   # atomic
-        files += [f"vtk/{f}" for f in getattr(self, "_vtk_files", [])]
-        return files
 
     def summary(self) -> dict:
         Fx = np.asarray(self.rows["Fx"])

@@ -1,11 +1,12 @@
-"""Per-step history of a run and the measures taken from it (no NGSolve)."""
+"""The per-step history of a run (one row of floats per step: the columns of timeseries.csv)
+and the numbers taken from it for summary.json (no NGSolve). Not to be confused with a
+ground-motion record (``setup.records``)."""
 from __future__ import annotations
 
 import operator
 
 import numpy as np
 
-from .joints import crack_measures  # noqa: F401 (the measure lives with the joints)
 
 # per-step histories: the CSV column order. The unprefixed crack/damage columns are the base's
 # (kept under their original names; "base_<key>" columns hold the same values with the lift
@@ -63,8 +64,41 @@ def snapshot_steps(n_steps: int, count: int) -> list[int]:
     return [k for k in s if k >= 1]
 
 
+SNAP_KEYS = ("step", "t", "D", "kappa", "opening", "slip")
 
-def results_from_history(H, snaps, x, w) -> dict:
+
+class Snapshots:
+    """The joints' profiles (damage D, kappa, opening, slip at every point) at
+    ``output.snapshots`` times spread over the record, and at the static state (step 0)."""
+
+    def __init__(self, n_steps: int, count: int):
+        self.steps = set(snapshot_steps(n_steps, count))
+        self.data = {k: [] for k in SNAP_KEYS}
+
+    def due(self, k: int) -> bool:
+        return k in self.steps
+
+    def take(self, k, t, solver):
+        st = solver.state
+        for key, val in (("step", k), ("t", float(t)), ("D", st.damage.copy()),
+                         ("kappa", st.kappa.copy()), ("opening", solver.g[:, 0].copy()),
+                         ("slip", solver.g[:, 1].copy())):
+            self.data[key].append(val)
+
+    @property
+    def last_step(self) -> int:
+        return self.data["step"][-1]
+
+    def arrays(self) -> dict:
+        return {f"snap_{k}": np.asarray(v) for k, v in self.data.items()}
+
+    def restore(self, arrs):
+        self.data = {k: [float(v) if k == "t" else (int(v) if k == "step" else v)
+                         for v in arrs[f"snap_{k}"]] for k in SNAP_KEYS}
+
+
+
+def results_from_history(H) -> dict:
     """The numbers the paper's statements are compared with."""
     t = H["t"]
     if t.size == 0:

@@ -26,7 +26,7 @@ def format_summary(s: dict) -> str:
         f"{tm['dynamic']:.1f} s, per step median {1e3 * (tm['per_step_median'] or 0):.2f} ms",
     ]
     pe = s.get("post_earthquake")
-    for name, st in ((s.get("static") or {}).get("joints") or {}).items():   # issue #13
+    for name, st in ((s.get("static") or {}).get("joints") or {}).items():
         d = (s.get("safety") or {}).get("joints", {}).get(name, {})
         p = (pe or {}).get("joints", {}).get(name, {})
         lines.append(f"  {name}: sliding FS static {st['sliding_fs']:.3g}, min "
@@ -209,7 +209,7 @@ increments, and what we observe is reported in the table above.
 
 
 def safety_table(data) -> str:
-    """The base's sliding safety of each run (issue #13; docs/decisions.md §9); empty for runs
+    """The base's sliding safety of each run (docs/safety.md); empty for runs
     written before the safety outputs existed."""
     rows = []
     for k, (s, H, Dp) in data.items():

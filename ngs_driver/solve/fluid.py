@@ -1,8 +1,8 @@
 """Compressible water in the condensed Newmark solver: the pressure is eliminated exactly inside
-every step (docs/decisions.md "Reservoir").
+every step (docs/reservoir.md §4).
 
-For a step of size h (coefficients c0..c5 of ``NewmarkSolver._coeffs``) the fluid rows of the
-coupled u-p system (fe/acoustic.py) read
+For a step of size h (coefficients c0..c5 of ``NewmarkSolver.coefficients``) the fluid rows of
+the coupled u-p system (fe/acoustic.py) read
 
     A_pp p_{n+1} = b_p - c0 rho Q^T u_{n+1},     A_pp = c0 G + c1 C_f + H,
     b_p = G (c0 p + c2 p' + c3 p'')_n + C_f (c1 p + c4 p' + c5 p'')_n
@@ -64,7 +64,7 @@ class FluidStepper:
         key = float(h)
         e = self._cache.get(key)
         if e is None:
-            c0, c1 = self.solver.integrator.coefficients(h)[:2]
+            c0, c1 = self.solver.coefficients(h)[:2]
             cf, cm = self._weights()
             W = self.ac.W
             if cf == 1.0 and cm == 1.0:
@@ -106,7 +106,7 @@ class FluidStepper:
         s, ac, W = self.solver, self.ac, self.ac.W
         if self.pdd is None:
             self._start()
-        c0, c1, c2, c3, c4, c5 = s.integrator.coefficients(h)
+        c0, c1, c2, c3, c4, c5 = s.coefficients(h)
         agx, agy = self.ground(s.time + h)
         cf, cm = self._weights()
         fac = self._entry(h)[0]
@@ -136,7 +136,7 @@ class FluidStepper:
 
     def commit(self, h):
         s = self.solver
-        c0, c1, c2, c3, c4, c5 = s.integrator.coefficients(h)
+        c0, c1, c2, c3, c4, c5 = s.coefficients(h)
         hk, y = self._bp
         assert hk == float(h)
         X = self._entry(h)[1]
@@ -221,8 +221,8 @@ class GroundPressureLoad:
         self.ground = ground
         self.solver = solver
         W = acoustic.W
-        self.vx = -acoustic.rho * (acoustic.Q @ acoustic._Hfac.solve(W.b_x))
-        self.vy = -acoustic.rho * (acoustic.Q @ acoustic._Hfac.solve(W.b_y))
+        self.vx = -acoustic.rho * (acoustic.Q @ acoustic.solve_H(W.b_x))
+        self.vy = -acoustic.rho * (acoustic.Q @ acoustic.solve_H(W.b_y))
         self._zero = sp.csr_matrix((solver.ndof, solver.ndof))
         solver.ext = self
 

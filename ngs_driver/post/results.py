@@ -31,7 +31,7 @@ def write_run_outputs(out, model, scene, gm, H, snaps, solver, u_static, joints,
                                 "crack_length_heel = contiguous debonded length from the heel; "
                                 "<joint>_* the same per joint (crack_length_upstream from its "
                                 "upstream end); energy terms [J/m] from the static state "
-                                "(docs/decisions.md §7.4)"])
+                                "(docs/solver.md §9)"])
     files.append("timeseries.csv")
     iface = model.interface
     for name, sl in zip(joints.names, joints.slices):
@@ -62,7 +62,7 @@ def write_run_outputs(out, model, scene, gm, H, snaps, solver, u_static, joints,
                                      H["crack_length"])], title))
     if heel is None:
         heel = {"u": solver.u, "t": H["t"][-1] if len(H["t"]) else 0.0, "open": None}
-    tri = P._triangles(model)               # the mesh's triangles, for both mesh figures
+    tri = P.mesh_cells(model)               # the mesh's triangles, for both mesh figures
     f = P.plot_heel_von_mises(out / "fig12_heel_von_mises.png", model, heel["u"],
                             title + f"\nt = {heel['t']:.3f} s: largest heel opening "
                             + (f"({1e3 * heel['open']:.3g} mm) " if heel["open"] is not None

