@@ -106,13 +106,14 @@ def _scene(joints, **over):
 
 def test_strong_joint_behaves_like_no_joint(tmp_path):
     """A neck joint far stronger and stiffer than the concrete (sigma_max = 100 MPa against
-    ~1 MPa of stress; G_I = 1 J/m^2: initial stiffness 2.5e16 Pa/m, so its compliance over the
+    ~1 MPa of stress; G_I = 1 J/m^2: initial stiffness 2.5e16 Pa/m in tension, the same in
+    compression by its contact_stiffness, so its compliance over the
     neck is ~1e-6 of the concrete's above it) gives the crest response of the same mesh glued
     at the neck (both blocks one field). Measured 3.6e-8 of the crest amplitude; tolerance
     1e-6: the joint's compliance plus the round-off of a stiffness ratio 2.5e16 / 5e10 in the
     factorisation (5e-7 measured with 2.5e18 Pa/m: stiffer is not closer)."""
     joint = {"name": "neck", "elevation": 66.5, "sigma_max": 1e8, "tau_max": 1e8,
-             "G_I": 1.0, "damage": False, "scaling": False}
+             "G_I": 1.0, "damage": False, "scaling": False, "contact_stiffness": 2.5e16}
     # a motion that keeps the base bonded: a nonlinear base would amplify any difference
     sc = _scene([joint], **{"ground_motion.scale": 0.3})
     s_j = run(sc, tmp_path / "joint", progress=False, plots=False)
@@ -143,9 +144,11 @@ def test_strong_joint_behaves_like_no_joint(tmp_path):
 def test_neck_joint_cracks_from_the_faces(tmp_path):
     """The 1967 Koyna earthquake cracked the dam near the downstream slope break (66.5 m). A
     weak neck joint under a strong motion debonds from a face inward: the debonded points
-    form runs that touch the upstream or the downstream face."""
+    form runs that touch the upstream or the downstream face. The base has friction 0.8, so
+    that it does not collapse (slide without bound) before the neck cracks."""
     joint = {"name": "neck", "elevation": 66.5, "sigma_max": 0.5e6, "tau_max": 0.5e6}
-    sc = _scene([joint], **{"time.duration": 0.3, "ground_motion.start": 2.5})
+    sc = _scene([joint], **{"time.duration": 0.3, "ground_motion.start": 2.5,
+                            "interface.friction": 0.8})
     s = run(sc, tmp_path, progress=False, plots=False)
     nk = s["joints"]["neck"]
     assert nk["debonded_length_max"] > 0.5

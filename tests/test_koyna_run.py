@@ -107,7 +107,18 @@ def test_static_equals_linear_when_elastic(tmp_path, smoke_model):
     law = build_law(sc)
     assert st["max_normal_traction"] < sc.interface.sigma_max
     assert st["max_kappa"] < law.cohesive.lambda_max          # on the initial elastic branch
-    u = smoke_model.static_solution(law.cohesive.k_normal, law.cohesive.k_tangential)
+    # the intact joint is bilinear elastic: k_N (cohesive) in tension, contact_stiffness in
+    # compression; its linear solution by active sets on the sign of the opening (2 passes)
+    iface = smoke_model.interface
+    kn = np.full(iface.npts, sc.interface.contact_stiffness)
+    for _ in range(10):
+        u = smoke_model.static_solution(kn, law.cohesive.k_tangential)
+        tension = iface.gap(u)[:, 0] > 0
+        kn_new = np.where(tension, law.cohesive.k_normal, sc.interface.contact_stiffness)
+        if np.array_equal(kn_new, kn):
+            break
+        kn = kn_new
+    assert np.array_equal(kn_new, kn)
     cx, cy = smoke_model.crest_dofs
     scale = math.hypot(u[cx], u[cy])
     assert abs(st["crest_ux"] - u[cx]) <= 1e-8 * scale
@@ -165,15 +176,19 @@ def test_smoke_unchanged_by_the_pipeline_restructure(smoke_run):
 
 def test_energy_budget_recorded(smoke_run):
     """Every step books the energy budget; the residual of this strongly nonlinear run (cuts,
-    debonding over 45 m in 0.1 s) is small against the input work: measured 1.7e-3 at
-    dt = 2 ms, 6.4e-4 at 0.5 ms (verification/energy_balance.py); 1e-2 bounds it with margin
-    and would catch a missing term (the size-scale term alone is 3 % of the input work)."""
+    debonding over 45 m in 0.1 s) is small against the input work: measured 2.3e-3 at
+    dt = 2 ms (verification/energy_balance.py); 5e-3 bounds it with a factor 2 and would catch
+    a missing term of the size of the damping (29 % of the input work) or of the integrator's
+    (E_alg, 3.7e-4 of the input work with generalized alpha rho_inf = 0.7, must be positive:
+    the scheme dissipates). The size-scale term is booked (3.5e-3 of the input work since the
+    contact stiffness no longer follows the size scaling)."""
     out, s = smoke_run
     e = s["energy"]
-    assert 0 < e["max_residual_over_input_work"] < 1e-2
+    assert 0 < e["max_residual_over_input_work"] < 5e-3
     f = e["final"]
     assert f["W_ext"] > 0 and f["E_damp"] > 0 and f["base_E_diss"] > 0
-    assert f["E_scaling"] > 0.01 * e["input_work_scale"]
+    assert f["E_alg"] > 0
+    assert f["E_scaling"] > 1e-3 * e["input_work_scale"]
     assert (out / "energy_budget.png").exists()
 
 

@@ -243,7 +243,7 @@ def test_modal_names_the_fundamental_resonance_pine_flat(tmp_path):
     compressible below incompressible (alpha = 1, the water's own resonance above)."""
     import json
 
-    from ngs_driver.run.modal import run_modal
+    from ngs_driver.run.frequencies import run_modal
 
     sc = load_scene("pine_flat", ["geometry.foundation=rigid", "mesh.h_heel=1.0",
                                   "mesh.heel_zone=0.0", "mesh.h_interface=6.0",

@@ -117,8 +117,10 @@ def linear_sets(sc) -> list[str]:
     scaled by (sigma / sigma_scene)^2 (k0 = sigma^2 / (2 lambda_max G_I) unchanged)."""
     i = sc.interface
     f = LINEAR_SIGMA / i.sigma_max
+    k0 = i.sigma_max ** 2 / (2 * i.lambda_max * i.G_I)     # the same in compression
     return [f"interface.sigma_max={i.sigma_max * f!r}", f"interface.tau_max={i.tau_max * f!r}",
             f"interface.G_I={i.G_I * f * f!r}", "interface.contact=linear",
+            f"interface.contact_stiffness={k0!r}",
             "interface.friction=0.0", "interface.damage=false", "interface.scaling=false"]
 
 
@@ -151,9 +153,12 @@ def a0a1_of(a) -> tuple[float, float]:
 
 def variant(s, method="condensed"):
     """A solver on the same matrices, law and options as ``s`` with another Newton method,
-    started from s's committed state."""
+    started from s's committed state (the full method has no low-rank damping part: compare it
+    on scenes with ``damping.model`` rayleigh or stiffness)."""
     from ngs_driver.solve.newmark import NewmarkSolver
     v = NewmarkSolver(s.K, s.M, s.C, s.B, s.w, s.law, dt=s.dt, method=method,
+                      integrator=s.integrator,
+                      C_lowrank=s.C_lowrank if method == "condensed" else None,
                       tol_residual=s.tol_residual, max_iter=s.max_iter, min_dt=s.min_dt)
     v.state = s.state
     v.set_initial(u=s.u.copy(), v=s.v.copy(), a=s.a.copy(), f=s.f.copy())
@@ -336,7 +341,8 @@ def part2(res, alphas=(2.0,), full_dir=None, extra_set=("time.stop_slip=0",)):
 # part 3: condensed vs full Newton on the default mesh
 # ---------------------------------------------------------------------------------------------
 def part3(res, warm=50, n_full=5, n_cond=50, model=None):
-    sc = scene(n_steps=warm + n_cond + 1)
+    # Rayleigh damping: the full (re-factorising) reference has no low-rank damping part
+    sc = scene(["damping.model=rayleigh"], n_steps=warm + n_cond + 1)
     m = model if model is not None else model_of(sc)
     a = analysis(sc, m)
     fk = load(a)

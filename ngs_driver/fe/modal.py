@@ -113,5 +113,11 @@ def damping_from_modes(res: ModalResult, ratio: float = 0.05, modes=(1, 3),
 
 
 def k0_from_scene(scene) -> tuple[float, float]:
+    """(k_N, k_T) [Pa/m] of the bonded base joint under its dam's weight: the compressive
+    stiffness ``interface.contact_stiffness`` (the cohesive one without contact) and the
+    cohesive shear stiffness (``solve.joint_laws.law_stiffness`` of the scene's law)."""
     i = scene.interface
-    return paper_k0(i.sigma_max, i.tau_max, i.G_I, i.lambda_max, i.ratio_lTc_lNc)
+    kn, kt = paper_k0(i.sigma_max, i.tau_max, i.G_I, i.lambda_max, i.ratio_lTc_lNc)
+    if i.contact != "none":
+        kn = float(i.contact_stiffness)
+    return kn, kt

@@ -81,9 +81,7 @@ class LowerFace:
 def _field_offsets(model):
     """First global DOF of each field of the model's (product) space, in ``model.regions``
     order."""
-    comps = list(getattr(model.fes, "components", [])) or [model.fes]
-    if len(model.regions) == 1:
-        comps = [model.fes]
+    comps = [model.fes] if len(model.regions) == 1 else list(model.fes.components)
     off = np.concatenate([[0], np.cumsum([V.ndof for V in comps])]).astype(np.int64)
     return comps, off
 

@@ -39,7 +39,7 @@ from numba import njit
 
 from ..post.files import atomic_savez, atomic_write_json, environment_info
 from ..setup import FORMULATION, characteristic_times, law_parts, validate, window_note
-from ..solve.joint_laws import initial_stiffness
+from ..solve.joint_laws import initial_stiffness, law_stiffness
 from . import summary as sm
 from .checkpoint import (Checkpointer, interface_state, restore_solver_arrays, scene_difference,
                          solver_arrays)
@@ -135,7 +135,7 @@ class Analysis:
                                               self.absorbing)
         self.reference = sm.reference_parameters(scene, joints)
         kn_s, kt_s = k0_from_scene(scene)
-        k0n, k0t = self.reference["k_normal"], self.reference["k_tangential"]
+        k0n, k0t = law_stiffness(joints.laws[0])
         assert abs(kn_s - k0n) <= 1e-9 * k0n and abs(kt_s - k0t) <= 1e-9 * k0t
 
         # ---- modal analysis, damping, solver ---------------------------------------------------

@@ -2,14 +2,15 @@
 
 A run goes to the end of its record unless a joint collapses:
 
-* **unbounded sliding**: the joint slides (its mean slip changes faster than
-  ``SLIDING_RATE``) while friction and what is left of its cohesion can no longer hold the
-  static loads of the cracked state: FS_static = (f max(N_s, 0) + C) / |T_s| < 1, with N_s, T_s
-  the static loads (gravity, hydrostatic, the current uplift, tailwater) resolved on the
-  blocks above the joint, f the joint's current friction and C = sum of w c_p over its bonded
-  points (EM 1110-2-2100 eq. 3-1, the post-earthquake check applied while it slides). Nothing
-  then brings the block to rest: without the earthquake it accelerates down the slope of its
-  static loads;
+* **unbounded sliding**: the joint is cracked over its whole length, it slides (its mean
+  slip changes faster than ``SLIDING_RATE``), and friction alone can no longer hold the static
+  loads of the cracked state: FS_static = f max(N_s, 0) / |T_s| < 1, with N_s, T_s the static
+  loads (gravity, hydrostatic, the current uplift, tailwater) resolved on the blocks above the
+  joint and f the joint's current friction (EM 1110-2-2100 eq. 3-1 without cohesion, the
+  post-earthquake check applied while it slides). Nothing then brings the block to rest:
+  without the earthquake it accelerates down the slope of its static loads. (A joint with a
+  bonded ligament left is not collapsing yet: the ligament either holds or debonds, and then
+  the rule applies);
 * **a kinematic limit**: |slip| > ``time.max_slip`` or |rotation of the block above| >
   ``time.max_rotation`` (from the static state), beyond which the small-rotation kinematics
   and the user's interest end.
@@ -82,13 +83,17 @@ class CollapseRule:
         sliding = np.abs(rate) > SLIDING_RATE
         if not sliding.any():
             return None
+        cracked = scan.ints[:, 1] == 0             # no bonded point left
+        if not (sliding & cracked).any():
+            return None
         fs = self.static_fs(f_static, joints, scan)
         for i, n in enumerate(self.names):
-            if sliding[i] and fs[i] < 1.0:
+            if sliding[i] and cracked[i] and fs[i] < 1.0:
                 return {"joint": n, "time": float(t), "step": int(k),
-                        "reason": f"joint {n!r} slides ({rate[i]:+.3g} m/s) and friction and "
-                                  f"cohesion cannot hold the static loads of its cracked "
-                                  f"state: FS_static = {fs[i]:.3f} < 1 (unbounded sliding)",
+                        "reason": f"joint {n!r} is cracked over its length and slides "
+                                  f"({rate[i]:+.3g} m/s), and friction alone cannot hold the "
+                                  f"static loads of its cracked state: FS_static = "
+                                  f"{fs[i]:.3f} < 1 (unbounded sliding)",
                         "measure": "static_fs", "value": float(fs[i])}
         return None
 

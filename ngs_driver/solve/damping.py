@@ -3,24 +3,24 @@ the factor that solves with it.
 
 ``damping.model = "rayleigh_deformation"`` (docs/sliding.md): C = a0 D^T M D + a1 K with
 
-    D v = v - sum_b R_b c_b(v),     c_b(v) = (J_b^T W_b J_b)^-1 J_b^T W_b (B_b v),
+    D v = v - sum_j Rt_j c_j(v),     c_j(v) = (J_j^T W_j J_j)^-1 J_j^T W_j (B_j v),
 
-R_b the rigid-body motions of dam block b (two translations and the rotation about its
-centroid, ``fe.blocks.block_rigid_modes``) and c_b the rigid motion of the block relative to
-the face below it that fits, in the least-squares sense weighted by the integration weights
-W_b, the gap rates B_b v at the points of its lower joint b (J_b: the gap rate (N, T) of a
-unit rigid motion at each point). A block that slides or rocks on its joint as a rigid body has
-D v = 0: the mass term no longer acts as a dashpot between it and the ground (Hall 2006,
-Earthquake Engng Struct. Dyn. 35:525); a bonded joint has B_b v ~ 0, D v ~ v, and the mass term
-is Rayleigh's a0 M. (The M-orthogonal projection onto the rigid motions, M - M R (R^T M R)^-1
-R^T M, was tried and rejected: it also removes the mass damping of a bonded cantilever's first
-mode, whose mass-weighted mean motion is a translation and a rotation; measured on Koyna it
-raised the linear crest peak by 31 %.)
+c_j the rigid motion (two translations and a rotation about the centroid of the block above
+joint j) that fits, in the least-squares sense weighted by the integration weights W_j, the
+gap rates B_j v at the points of joint j (J_j: the gap rate (N, T) of a unit rigid motion at
+each point), and Rt_j that rigid motion applied to every dam block above joint j (a block
+rides on all the joints below it: its rigid velocity is the sum of theirs). A stack of blocks
+that slides or rocks on its joints as rigid bodies has D v = 0: the mass term no longer acts
+as a dashpot between them and the ground (Hall 2006, Earthquake Engng Struct. Dyn. 35:525); a
+bonded joint has B_j v ~ 0, and the mass term is Rayleigh's a0 M. (The M-orthogonal projection
+onto the blocks' rigid motions, M - M R (R^T M R)^-1 R^T M, was tried and rejected: it also
+removes the mass damping of a bonded cantilever's first mode, whose mass-weighted mean motion
+is a translation and a rotation; measured on Koyna it raised the linear crest peak by 31 %.)
 
-D^T M D = M + U W U^T with U = [M R, G^T] (n x 6 per block, G the stacked c_b operators) and
-W = [[0, -I], [-I, R^T M R]] per block: C = C_s + a0 U W U^T, C_s = a0 M + a1 K sparse. The
-effective matrix of a step, A = A_s + U W' U^T (W' = c c1 a0 W), is solved by the
-Sherman-Morrison-Woodbury identity on the sparse factor of A_s:
+D^T M D = M + U W U^T with U = [M Rt, G^T] (n x 6 per joint, G the stacked c_j operators) and
+W = [[0, -I], [-I, Rt^T M Rt]]: C = C_s + a0 U W U^T, C_s = a0 M + a1 K sparse. The effective
+matrix of a step, A = A_s + U W' U^T (W' = c c1 a0 W), is solved by the Sherman-Morrison-
+Woodbury identity on the sparse factor of A_s:
 
     A^-1 b = A_s^-1 (b + U Q Z^T b),   Z = A_s^-1 U,   Q = -W' (I + U^T Z W')^-1,
 
@@ -36,11 +36,12 @@ __all__ = ["DeformationDamping", "LowRankFactor"]
 
 
 class DeformationDamping:
-    """The dense rank-6-per-block part of C: C = C_s + a0 U W U^T (module docstring).
+    """The dense rank-6-per-joint part of C: C = C_s + a0 U W U^T (module docstring).
 
-    M (n, n) sparse; R (n, 3 nb) rigid modes of the blocks, bottom up; centroids (nb, 2);
-    B (2 npts, n) the joints' gap operator, x, y, w the points' coordinates and weights,
-    slices[b] the points of block b's lower joint; a0 the mass coefficient."""
+    M (n, n) sparse; R (n, 3 nb) the rigid modes of each dam block (bottom up, each about its
+    own centroid, zero off the block); centroids (nb, 2); B (2 npts, n) the joints' gap
+    operator, x, y, w the points' coordinates and weights, slices[j] the points of joint j
+    (the base first: joint j carries the blocks j, j+1, ...); a0 the mass coefficient."""
 
     def __init__(self, M, R, centroids, B, x, y, w, slices, a0: float):
         R = np.asarray(R, dtype=np.float64)
@@ -49,13 +50,19 @@ class DeformationDamping:
         if R.shape != (n, 3 * nb) or len(slices) < nb:
             raise ValueError(f"rigid modes {R.shape}, {nb} blocks, {len(slices)} joints for "
                              f"{n} DOFs")
-        MR = np.asarray(M @ R)
-        Gt = np.zeros((n, 3 * nb))
-        W = np.zeros((6 * nb, 6 * nb))
-        for b in range(nb):
-            sl = slices[b]
+        nj = nb
+        Rt = np.zeros((n, 3 * nj))
+        Gt = np.zeros((n, 3 * nj))
+        for j in range(nj):
+            xc, yc = centroids[j]
+            for b in range(j, nb):          # the blocks above joint j, about block j's centroid
+                tx, ty, rot = R[:, 3 * b], R[:, 3 * b + 1], R[:, 3 * b + 2]
+                xb, yb = centroids[b]
+                Rt[:, 3 * j] += tx
+                Rt[:, 3 * j + 1] += ty
+                Rt[:, 3 * j + 2] += rot + (yc - yb) * tx + (xb - xc) * ty
+            sl = slices[j]
             xp, yp, wp = x[sl], y[sl], w[sl]
-            xc, yc = centroids[b]
             m = xp.size
             J = np.zeros((2 * m, 3))           # gap rate (N, T) of a unit rigid motion
             J[0::2, 1] = 1.0
@@ -64,19 +71,16 @@ class DeformationDamping:
             J[1::2, 2] = -(yp - yc)
             wd = np.repeat(wp, 2)
             JW = (J * wd[:, None]).T           # (3, 2m)
-            Bb = B[2 * sl.start:2 * sl.stop]
-            G = np.linalg.solve(JW @ J, np.asarray((Bb.T @ JW.T)).T)    # (3, n)
-            Gt[:, 3 * b:3 * b + 3] = G.T
-            Rb = R[:, 3 * b:3 * b + 3]
-            i0 = 6 * b
-            W[i0:i0 + 3, i0 + 3:i0 + 6] = -np.eye(3)
-            W[i0 + 3:i0 + 6, i0:i0 + 3] = -np.eye(3)
-            W[i0 + 3:i0 + 6, i0 + 3:i0 + 6] = Rb.T @ MR[:, 3 * b:3 * b + 3]
-        U = np.empty((n, 6 * nb))
-        for b in range(nb):
-            U[:, 6 * b:6 * b + 3] = MR[:, 3 * b:3 * b + 3]
-            U[:, 6 * b + 3:6 * b + 6] = Gt[:, 3 * b:3 * b + 3]
-        self.U = np.ascontiguousarray(U)
+            Bj = B[2 * sl.start:2 * sl.stop]
+            G = np.linalg.solve(JW @ J, np.asarray((Bj.T @ JW.T)).T)    # (3, n)
+            Gt[:, 3 * j:3 * j + 3] = G.T
+        MRt = np.asarray(M @ Rt)
+        k = 3 * nj
+        W = np.zeros((2 * k, 2 * k))
+        W[:k, k:] = -np.eye(k)
+        W[k:, :k] = -np.eye(k)
+        W[k:, k:] = Rt.T @ MRt
+        self.U = np.ascontiguousarray(np.hstack([MRt, Gt]))
         self.W = 0.5 * (W + W.T)
         self.a0 = float(a0)
 

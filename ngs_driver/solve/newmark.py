@@ -493,7 +493,7 @@ class NewmarkSolver:
         A = (c0 * (1.0 - self.alpha_m) if self.alpha_m else c0) * self.M + c * self.K
         if self.C is not None:
             A = A + (c * c1) * self.C
-        if getattr(self, "ext", None) is not None:     # compressible water (acoustic_newmark)
+        if getattr(self, "ext", None) is not None:     # compressible water (solve/fluid.py)
             A = A + self.ext.matrix(h)
         return A.tocsr()
 
