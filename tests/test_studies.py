@@ -227,8 +227,9 @@ def test_ida_local_cluster_writes_table_fragility_and_figures(first_study):
         assert abs(ratio - 2) < 2e-3 * 2, ratio
     frag = json.loads((out / "fragility.json").read_text())
     assert set(frag["limit_states"]) == {"heel_crack_1m", "heel_crack_5m",
-                                         "residual_slip_25mm", "residual_slip_50mm",
-                                         "base_failure"}
+                                         "residual_slip_25mm", "residual_slip_150mm",
+                                         "residual_slip_600mm", "collapse", "base_failure"}
+    assert "Chopra & Zhang 1991" in frag["limit_states"]["residual_slip_150mm"]["description"]
     assert frag["limit_states"]["heel_crack_1m"]["n"] == [2, 2]
     for png in ("ida_curves.png", "fragility.png"):
         assert (out / png).stat().st_size > 10_000
@@ -327,3 +328,21 @@ def test_bad_input_is_rejected_before_submission(args, words, tmp_path, capsys):
     for w in words:
         assert w in err, (w, err)
     assert not (tmp_path / "D").exists()        # nothing written, nothing submitted
+
+
+def test_limit_states_parse_and_collapse_exceeds_sliding_states():
+    """``--limit-state NAME=COLUMN:THRESHOLD`` parses or names what is wrong; a collapsed run
+    (sliding without bound) exceeds every sliding limit state whatever slip it had when it
+    stopped, and not the heel-crack ones."""
+    from ngs_driver.studies.fragility import exceedances, parse_limit_state
+    assert parse_limit_state("slip_1m=slip_residual_m:1.0") == (
+        "slip_1m", "slip_residual_m", 1.0, "slip_residual_m >= 1")
+    for bad in ("slip_1m", "slip_1m=slip_residual_m", "=x:1", "a=b:c", "a=b:inf"):
+        with pytest.raises(ValueError, match="--limit-state"):
+            parse_limit_state(bad)
+    rows = [{"status": "ok", "level_g": 0.5, "slip_residual_m": 0.01, "collapse": 1,
+             "crack_heel_max_m": 0.5},
+            {"status": "ok", "level_g": 0.5, "slip_residual_m": 0.01, "collapse": 0,
+             "crack_heel_max_m": 0.5}]
+    assert exceedances(rows, "slip_residual_m", 0.6)["z"] == [1]
+    assert exceedances(rows, "crack_heel_max_m", 1.0)["z"] == [0]

@@ -42,6 +42,10 @@ def add_ida_parser(sub):
     p.add_argument("--window", default="scene", choices=("scene", "record"),
                    help="analysed window: the scene's ground_motion.start/time.duration "
                         "(default) or each record whole (start 0, duration = its length)")
+    p.add_argument("--limit-state", action="append", default=[], dest="limit_states",
+                   metavar="NAME=COLUMN:THRESHOLD",
+                   help="a limit state of fragility.json besides the defaults (the same NAME "
+                        "replaces a default), e.g. slip_1m=slip_residual_m:1.0 (repeatable)")
     p.add_argument("--no-plots", action="store_true", help="no PNGs")
     p.add_argument("--quiet", action="store_true", help="no progress bar, log file only")
     return p
@@ -58,10 +62,13 @@ def cmd_ida(a) -> int:
         records = parse_list(a.records, "--records", int)
         comps = parse_list(a.components, "--components", str)
         levels = parse_list(a.levels, "--levels", float)
+        from .fragility import parse_limit_state
+        limit_states = [parse_limit_state(x) for x in a.limit_states]
         res = run_ida(a.scene, overrides=a.overrides, suite=a.suite, records=records,
                       components=comps, im=a.im, levels=levels, out=a.out,
                       workers=a.workers, scheduler=a.scheduler, failed=a.failed,
-                      plots=not a.no_plots, progress=not a.quiet, window=a.window)
+                      plots=not a.no_plots, progress=not a.quiet, window=a.window,
+                      limit_states=limit_states)
     except fema.MissingRecordsPackage as e:
         return _err(str(e))
     except (StudyInputError, ValueError) as e:

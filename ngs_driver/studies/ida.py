@@ -47,7 +47,9 @@ WORKER_ENV = {"OMP_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1", "MKL_NUM_THRE
 RETRIES = 2
 DEMANDS = ("crack_heel_max_m", "crack_heel_final_m", "debonded_total_max_m",
            "debonded_total_final_m", "max_D", "slip_max_m", "slip_residual_m",
-           "crest_drift_max", "full_base_failure", "t_sliding_failure_s")
+           "rotation_max_rad", "rotation_residual_rad", "crest_drift_max",
+           "full_base_failure", "collapse", "collapse_joint", "t_collapse_s",
+           "t_sliding_failure_s")
 ROW_KEYS = ("id", "set", "record", "component", "event", "year", "station", "magnitude",
             "im", "level_g", "scale", "im_unscaled_g", "T1_s", "status", "message",
             "wall_s", "attempts", "worker") + DEMANDS
@@ -226,7 +228,20 @@ def demand_measures(summary: dict | None, rec: dict, model, base=slice(None)) ->
     res = summary["results"]
     ux = np.asarray(rec["crest_ux"], float) - summary["static"]["crest_ux"]
     stopped = summary.get("stopped")
+    coll = summary.get("collapse")
     base_len = float(w.sum())
+    jb = (summary.get("joints") or {}).get("base") or {}
+    if "rotation_max" in jb:                 # the base's block rotation (run/joints.py)
+        d["rotation_max_rad"] = float(jb["rotation_max"])
+        d["rotation_residual_rad"] = float(abs(jb["rotation_residual"]))
+    d["collapse"] = int(coll is not None)
+    d["collapse_joint"] = coll["joint"] if coll else None
+    d["t_collapse_s"] = coll["time"] if coll else None
+    # lift joints: their own permanent slip and rotation
+    for name, j in (summary.get("joints") or {}).items():
+        if name != "base" and "slip_residual" in j:
+            d[f"{name}_slip_residual_m"] = float(abs(j["slip_residual"]))
+            d[f"{name}_rotation_max_rad"] = float(j["rotation_max"])
     d.update({
         "crack_heel_max_m": res["crack_length_heel_max"],
         "crack_heel_final_m": res["crack_length_heel_final"],
@@ -356,10 +371,12 @@ def _connect(workers, scheduler, log):
 def run_ida(scene, *, suite: str, im: str, levels, out, records=None, components=None,
             overrides=None, workers: int | None = None, scheduler: str | None = None,
             progress: bool = True, failed: str = "exceed", plots: bool = True,
-            window: str = "scene",
+            window: str = "scene", limit_states=None,
             log=None, client=None) -> dict:
     """The IDA (see the module doc). Returns {'rows', 'fragility', 'submitted', 'skipped',
-    'errors', 'files'}. ``client``: an existing dask Client (tests)."""
+    'errors', 'files'}. ``limit_states``: tuples (name, demand column, threshold,
+    description) added to (or, same name, replacing) ``fragility.DEFAULT_LIMIT_STATES``.
+    ``client``: an existing dask Client (tests)."""
     out = pathlib.Path(out)
     if out.exists() and not out.is_dir():
         raise StudyInputError(f"--out = {str(out)!r}: is an existing file; allowed: a folder "
@@ -466,7 +483,10 @@ def run_ida(scene, *, suite: str, im: str, levels, out, records=None, components
     rows = [_row(done[p["id"]]) if p["id"] in done else
             _error_row(p, next(e for e in errors if e["id"] == p["id"])) for p in plan
             if p["id"] in done or any(e["id"] == p["id"] for e in errors)]
-    files = write_outputs(out, rows, im, failed, plots, study={
+    states = list(DEFAULT_LIMIT_STATES)
+    for ls in limit_states or ():
+        states = [x for x in states if x[0] != ls[0]] + [tuple(ls)]
+    files = write_outputs(out, rows, im, failed, plots, limit_states=states, study={
         "scene": base.to_dict(), "scene_hash": h, "suite": suite, "im": im,
         "levels_g": levels, "components": comps,
         "records": [fema.address(s, n, "") for s, n in chosen], "T1": T1_info,
@@ -586,7 +606,7 @@ def _error_row(p, e) -> dict:
 # ---------------------------------------------------------------------------------------------
 # outputs
 # ---------------------------------------------------------------------------------------------
-def write_outputs(out, rows, im, failed, plots, study) -> list[str]:
+def write_outputs(out, rows, im, failed, plots, study, limit_states=None) -> list[str]:
     from ..post.files import atomic_write_json, atomic_write_text
     out = pathlib.Path(out)
     keys = list(ROW_KEYS) + sorted({k for r in rows for k in r} - set(ROW_KEYS))
@@ -602,7 +622,7 @@ def write_outputs(out, rows, im, failed, plots, study) -> list[str]:
             "citation": "Baker (2015) Earthquake Spectra 31(1):579-599 (multiple-stripe MLE); "
                         + fema.CITATION,
             "limit_states": {}}
-    for name, col, thr, desc in DEFAULT_LIMIT_STATES:
+    for name, col, thr, desc in (limit_states or DEFAULT_LIMIT_STATES):
         ex = exceedances(rows, col, thr, failed)
         entry = {"description": desc, "demand": col, "threshold": thr}
         if ex["levels"]:
