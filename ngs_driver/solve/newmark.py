@@ -201,6 +201,8 @@ class StepReport:
     dts         : sizes of the accepted sub-steps (sum = dt); [dt] if no cut
     iters_per_substep : iterations of each accepted sub-step
     residuals   : final relative residual norm of each accepted sub-step
+    event_cuts  : converged attempts redone with half the sub-step because a sliding joint
+                  stopped or reversed inside them (friction events, ``NewmarkSolver.step``)
     n_active    : number of points not in their initial elastic state at the end
     wall        : wall time of the call [s]
     """
@@ -210,6 +212,7 @@ class StepReport:
     dts: list = field(default_factory=list)
     iters_per_substep: list = field(default_factory=list)
     residuals: list = field(default_factory=list)
+    event_cuts: int = 0
     n_active: int = 0
     wall: float = 0.0
 
@@ -290,7 +293,8 @@ class NewmarkSolver:
     def __init__(self, K, M, C, B, w, law, *, dt, beta=None, gamma=None, alpha_hht=0.0,
                  integrator=None, tol_residual=1e-8, tol_energy=1e-16, max_iter=25,
                  min_dt=None, method="condensed", line_search=True, max_cache=6,
-                 active_tol=1e-12, few_max=16, jacobian_reuse=True, C_lowrank=None):
+                 active_tol=1e-12, few_max=16, jacobian_reuse=True, C_lowrank=None,
+                 event_levels=3):
         if method not in ("condensed", "full"):
             raise ValueError(f"NewmarkSolver method = {method!r} is not allowed; allowed: "
                              "'condensed', 'full'")
@@ -305,6 +309,10 @@ class NewmarkSolver:
         elif beta is not None or gamma is not None or alpha_hht != 0.0:
             raise ValueError("NewmarkSolver: give either integrator or beta/gamma/alpha_hht")
         self.integrator = integrator
+        # friction events (a sliding joint that stops or reverses) are localised in time by
+        # halving the sub-step up to event_levels times (``step``); 0: off
+        self.event_levels = int(event_levels)
+        self._slip_sign = None                 # sign of each point's last plastic slip step
         # the dense low-rank part of the damping matrix, C = C + a0 U W U^T (solve/damping.py)
         self.C_lowrank = C_lowrank
         self._P = C_lowrank                  # None or a DeformationDamping
@@ -1007,8 +1015,14 @@ class NewmarkSolver:
             end = pos + hf
             fe = f_next if end == 1 else f_start + float(end) * (f_next - f_start)
             res = self._attempt(h, fe)
+            if res[0] and self._friction_event(res[4], hf):
+                rep.event_cuts += 1                 # redo the event with half the sub-step
+                hf /= 2
+                continue
             if res[0]:
+                signs = self._slip_signs(res[4])
                 self._commit(h, fe, res)
+                self._slip_sign = signs
                 rep.iterations += res[7]
                 rep.iters_per_substep.append(res[7])
                 rep.residuals.append(res[8])
@@ -1032,6 +1046,32 @@ class NewmarkSolver:
         rep.wall = time.perf_counter() - t0
         self.history.append(rep)
         return rep
+
+    def _slip_signs(self, new):
+        """Sign (-1, 0, 1) of each point's plastic slip increment from the committed state to
+        ``new`` (0: stick, or no friction)."""
+        d = new.slip[:, 0] - self.state.slip[:, 0]
+        return np.sign(d).astype(np.int8)
+
+    def _friction_event(self, new, hf) -> bool:
+        """True when, in the attempt that ends in ``new``, most of the points that were sliding
+        (weighted by w) stopped or reversed, and the sub-step can still be halved (at most
+        ``event_levels`` times). Newmark-family schemes put a stick that starts inside a step at
+        the step's end: the velocity the scheme then derives from the displacement is not the
+        stopped block's (the trapezoidal rule reflects it, v_n+1 = 2 du/h - v_n ~ -v_n), an error
+        ~ the block's deceleration times the step; halving localises the event to dt / 2^k
+        (verification/sliding.py, docs/sliding.md)."""
+        if (self.event_levels <= 0 or self._slip_sign is None
+                or hf <= Fraction(1, 2 ** self.event_levels)):
+            return False
+        prev = self._slip_sign
+        sliding = prev != 0
+        if not sliding.any():
+            return False
+        now = self._slip_signs(new)
+        changed = sliding & (now != prev)
+        w = self.w
+        return float(w[changed].sum()) > 0.5 * float(w[sliding].sum())
 
     def forget_jacobian(self):
         """Drop the LUs kept for ``jacobian_reuse`` (the only numbers carried from step to step
@@ -1097,6 +1137,8 @@ class NewmarkSolver:
         active-point mask."""
         d = {"t": self.t.copy(), "g": self.g.copy(), "phi": self._phi.copy(),
              "active": self._active.copy()}
+        if self._slip_sign is not None:
+            d["slip_sign"] = self._slip_sign.copy()
         if self.g_offset is not None:      # a joint paired anew (finite sliding)
             d["g_offset"] = self.g_offset.copy()
         return d
@@ -1107,3 +1149,5 @@ class NewmarkSolver:
         self.g = np.array(d["g"])
         self._phi = np.array(d["phi"])
         self._active = np.array(d["active"])
+        if "slip_sign" in d:
+            self._slip_sign = np.array(d["slip_sign"], dtype=np.int8)
