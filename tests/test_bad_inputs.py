@@ -171,6 +171,35 @@ SCENES = [
     (["reservoir.level=150"], r"^reservoir.level = 150.0: above the crest"),
     (["loads.reservoir_level=150"], r"^loads.reservoir_level = 150.0: above the crest"),
     (["loads.reservoir_level=2e4"], r"^loads.reservoir_level = 20000.0: out of range"),
+    # sliding: contact, damping, integrator, collapse limits (docs/sliding.md)
+    (["interface.contact_stiffness=0"],
+     r"interface.contact_stiffness = 0.0: out of range, allowed \(0.0, 1e\+20\]"),
+    (["interface.contact_stiffness=-1e11"], r"interface.contact_stiffness = -100000000000.0: out of range"),
+    (["joints=[{name='neck', elevation=66.5, contact_stiffness=0}]"],
+     r"joints\[0\].interface.contact_stiffness = 0.0: out of range"),
+    (["damping.model=foo"], r"damping.model = 'foo': not allowed, choose one of \['rayleigh', "
+                            r"'stiffness', 'rayleigh_deformation'\]"),
+    (["damping.modes=[]"], r"damping.modes = \[\]: damping.model = 'rayleigh_deformation' needs "
+                           r"two distinct mode numbers"),
+    (["damping.model=stiffness", "damping.modes=[]"],
+     r"damping.modes = \[\]: damping.model = 'stiffness' needs a mode number"),
+    (["time.integrator=foo"], r"time.integrator = 'foo': not allowed, choose one of \['newmark', "
+                              r"'hht', 'generalized-alpha'\]"),
+    (["time.rho_inf=1.5"], r"time.rho_inf = 1.5: out of range, allowed \[0.0, 1.0\]"),
+    (["time.rho_inf=-0.1"], r"time.rho_inf = -0.1: out of range"),
+    (["time.integrator=hht", "time.rho_inf=0.3"],
+     r"time.rho_inf = 0.3 with time.integrator = 'hht': out of range, allowed \[0.5, 1\]"),
+    (["time.max_slip=0"], r"time.max_slip = 0.0: out of range, allowed \(0.0, 10000.0\]"),
+    (["time.max_rotation=0"], r"time.max_rotation = 0.0: out of range, allowed \(0.0, 1.0\]"),
+    (["time.max_rotation=-0.1"], r"time.max_rotation = -0.1: out of range"),
+    (["time.stop_slip=-1"], r"time.stop_slip = -1: out of range, allowed \[0, 10000\] m \(alias "
+                            r"of time.max_slip"),
+    (["solver.pairing_tolerance=0"], r"solver.pairing_tolerance = 0.0: out of range"),
+    (["ground_motion.record='pulse:square:0.5:0.4'"],
+     r"ground_motion.record = 'pulse:square:0.5:0.4': not a pulse; allowed: 'pulse:<shape>"),
+    (["ground_motion.record='pulse:sine:0.5:-1'"],
+     r"ground_motion.record = 'pulse:sine:0.5:-1': out of range; allowed: \|peak\| <= 10 g, "
+     r"period > 0 s"),
 ]
 
 

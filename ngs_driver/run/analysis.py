@@ -533,6 +533,9 @@ class Analysis:
             "formulation": FORMULATION,
             "stopped": self.stopped,
             "collapse": self.collapse,
+            "finite_sliding": {"joints_paired": [j[0] for j in self.pairing.joints],
+                               "repairings": int(self.pairing.repairs),
+                               "tolerance": scene.solver.pairing_tolerance},
             "crest_point": list(model.crest_point),
             "crest_displacement_note": "upstream crest corner, relative to the rigid ground "
                                        "(rock bottom); includes the static displacement",
