@@ -21,7 +21,7 @@ venv: $(STAMP)
 
 run: $(STAMP)
 	$(VPY) -m ngs_driver run-paper koyna --out results
-	$(VPY) -m ngs_driver run-paper koyna --set ground_motion.scale=0.2 --out results/scale_0.2
+	$(VPY) -m ngs_driver run koyna_engineering --out results/koyna_engineering
 
 # both cores: on a fresh clone (cold numba cache) most of the suite is numba compiling the law's
 # kernels; one worker per core, each test file on one worker (its fixtures built once).
