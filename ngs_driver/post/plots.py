@@ -128,6 +128,24 @@ def plot_energy(path, H, joints, title):
     return _savefig(fig, path)
 
 
+def plot_block_motion(path, H, joints, title):
+    """Each joint's slip and the rotation of the block above it against t, from the static
+    state (run/joints.py; docs/sliding.md §7)."""
+    fig, (a1, a2) = subplots(2, 1, figsize=(8, 5.5), sharex=True)
+    t = H["t"]
+    for j in joints:
+        a1.plot(t, 1e3 * H[f"{j}_slip"], lw=1.0, label=j)
+        a2.plot(t, 1e3 * H[f"{j}_rotation"], lw=1.0, label=j)
+    a1.set_ylabel("slip [mm]")
+    a2.set_ylabel("rotation [mrad]\n(counter-clockwise +)")
+    a2.set_xlabel("t [s]")
+    for a in (a1, a2):
+        a.grid(alpha=0.3)
+        a.legend(fontsize=7)
+    a1.set_title(title, fontsize=9)
+    return _savefig(fig, path)
+
+
 def plot_crack_length(path, series, title):
     """Crack length against t. series: [(label, t, contiguous-from-heel, total debonded)]."""
     fig, ax = subplots(figsize=(8, 3.8))

@@ -57,6 +57,8 @@ def write_run_outputs(out, model, scene, gm, H, snaps, solver, u_static, joints,
                                                      f" -- joint {name}"),
                                             xmax=P.damage_xmax({"D": D}, x)))
     files.append(P.plot_energy(out / "energy_budget.png", H, joints.names, title))
+    if all(f"{n}_slip" in H for n in joints.names):
+        files.append(P.plot_block_motion(out / "sliding_rocking.png", H, joints.names, title))
     files.append(P.plot_crack_length(out / "crack_length.png",
                                    [(f"alpha = {a:g}", H["t"], H["crack_length_heel"],
                                      H["crack_length"])], title))
