@@ -166,7 +166,7 @@ class Interface:
                           "4 l_Nc of the reference parameters (Roe & Siegmund 2003)")
     F_th: float = _f(0.0)
     contact: str = _f("linear", choices=("linear", "rough", "none"))
-    contact_stiffness: float = _f(1.0e11, lo=0.0, hi=1e20, lo_open=True,
+    contact_stiffness: float = _f(9.0e10, lo=0.0, hi=1e20, lo_open=True,
                                   doc="compressive stiffness of the joint, closed crack and "
                                       "intact bond, and the stick stiffness of friction [Pa/m] "
                                       "(docs/sliding.md)")

@@ -378,3 +378,72 @@ def test_gmres_on_an_earlier_lu_solves_to_the_true_residual():
     assert gmres_lu(luT, piv, Hd, P.indptr, P.indices, Px, P0, v, 1e-13, 3, z,
                     *work[:2], np.empty((4, 3)), np.empty(3), np.empty(3), np.empty(4),
                     work[-1]) == -1
+
+
+# ---------------------------------------------------------------------------------------------
+# the integrator family (solve/integrator.py) and the low-rank damping (solve/damping.py)
+# ---------------------------------------------------------------------------------------------
+def test_integrator_coefficients_are_chung_hulbert():
+    """rho_inf -> (alpha_m, alpha_f, beta, gamma) of Chung & Hulbert (1993, Eqs. 25, 17, 20)
+    and HHT (Hilber et al. 1977); generalized alpha at rho_inf = 0.5 is HHT's alpha = -1/3."""
+    from ngs_driver.solve.integrator import Integrator
+    ga = Integrator.make("generalized-alpha", rho_inf=0.7)
+    assert (ga.alpha_m, ga.alpha_f) == pytest.approx((0.4 / 1.7, 0.7 / 1.7), rel=1e-15)
+    assert ga.gamma == pytest.approx(0.5 - ga.alpha_m + ga.alpha_f, rel=1e-15)
+    assert ga.beta == pytest.approx(0.25 * (1 - ga.alpha_m + ga.alpha_f) ** 2, rel=1e-15)
+    h5, g5 = Integrator.make("hht", rho_inf=0.5), Integrator.make("generalized-alpha", rho_inf=0.5)
+    assert h5.alpha_f == pytest.approx(1 / 3) and g5.alpha_m == 0.0
+    assert (h5.beta, h5.gamma, h5.alpha_f) == pytest.approx((g5.beta, g5.gamma, g5.alpha_f))
+    for bad in (("hht", 0.4), ("generalized-alpha", 1.1), ("leapfrog", 1.0)):
+        with pytest.raises(ValueError, match="time.rho_inf|time.integrator"):
+            Integrator.make(bad[0], rho_inf=bad[1])
+
+
+@pytest.mark.parametrize("rho", [0.0, 0.7])
+def test_generalized_alpha_spectral_radius(model, rho):
+    """Free vibration of the linear block (elastic interface): the energy left after many
+    steps at a large omega dt decays as the scheme's spectral radius predicts, and at rho_inf
+    the highest modes lose at least (1 - rho_inf^2) of their energy per step (asymptotically);
+    a low mode keeps its energy to 2nd order. Here: the whole-system energy after 40 steps of
+    an impulse that excites every mode is below that of Newmark (rho_inf = 1), and never
+    grows (the scheme is dissipative)."""
+    from ngs_driver.solve.integrator import Integrator
+    m = model
+    law = strong_elastic_law()
+    energies = {}
+    for r in (rho, 1.0):
+        it = Integrator.make("generalized-alpha", rho_inf=r)
+        s = NewmarkSolver(m.K, m.M, None, m.B, m.w, law, dt=2e-3, integrator=it)
+        s.static(np.zeros(m.K.shape[0]))
+        s.set_initial(u=np.zeros(m.K.shape[0]), v=np.random.default_rng(1).standard_normal(
+            m.K.shape[0]) * 1e-3, a=None, f=np.zeros(m.K.shape[0]))
+        s.initial_acceleration(np.zeros(m.K.shape[0]))
+        e = [s.energy()]
+        for _ in range(40):
+            s.step(np.zeros(m.K.shape[0]))
+            e.append(s.energy())
+        energies[r] = np.array(e)
+    e = energies[rho]
+    assert np.all(np.diff(e) <= 1e-9 * e[0])                 # never gains energy
+    assert e[-1] < 0.9 * energies[1.0][-1]                     # dissipates the high modes
+    assert abs(energies[1.0][-1] / energies[1.0][0] - 1) < 1e-8   # trapezoid: conserves
+
+
+def test_alpha_rhs_fused_equals_numpy(model):
+    """The right-hand side of a generalized-alpha step from the fused products (one compiled
+    pass, solve/products.step_products5) equals the numpy expression to round-off (1e-13 of
+    its norm: the same sums in another association)."""
+    from ngs_driver.solve.integrator import Integrator
+    m = model
+    rng = np.random.default_rng(7)
+    C = (0.3 * m.M + 1e-3 * m.K).tocsr()
+    s = NewmarkSolver(m.K, m.M, C, m.B, m.w, weak_law(), dt=2e-3,
+                      integrator=Integrator.make("generalized-alpha", rho_inf=0.6))
+    n = m.K.shape[0]
+    s.set_initial(u=1e-4 * rng.standard_normal(n), v=rng.standard_normal(n) * 1e-2,
+                  a=rng.standard_normal(n), f=rng.standard_normal(n))
+    f = rng.standard_normal(n)
+    fused = s._rhs(2e-3, f)
+    s._mc = None                                      # the numpy path
+    plain = s._rhs(2e-3, f)
+    assert np.linalg.norm(fused - plain) <= 1e-13 * np.linalg.norm(plain)

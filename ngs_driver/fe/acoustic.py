@@ -327,6 +327,25 @@ def westergaard_series(y, H: float, rho: float = 1000.0, a: float = 1.0, omega: 
     return p, F
 
 
+class PressureProbe:
+    """p at fixed points of the water mesh, for many pressure vectors: the GridFunction and the
+    points' mesh locations are found once (``pressure_at`` does both at every call)."""
+
+    def __init__(self, W: WaterMatrices, pts):
+        import ngsolve as ngs
+
+        self.W = W
+        self.gf = ngs.GridFunction(W.Vp)
+        self.full = np.zeros(W.Vp.ndof)
+        mesh = W.Vp.mesh
+        self.mips = [mesh(float(x), float(y)) for x, y in pts]
+
+    def __call__(self, p_free) -> np.ndarray:
+        self.full[self.W.free] = np.real(p_free)
+        self.gf.vec.FV().NumPy()[:] = self.full
+        return np.array([self.gf(mp) for mp in self.mips])
+
+
 def pressure_at(W: WaterMatrices, p_free: np.ndarray, pts):
     """Evaluate a pressure vector at points [(x, y)] of the water mesh (real part)."""
     import ngsolve as ngs

@@ -149,11 +149,13 @@ class ReservoirRun:
             self.vtk.write(p, t)
 
     def _station_values(self, p):
-        from ..fe.acoustic import pressure_at
-        # stations on the face: evaluate 1 mm inside the water (the point search may return
-        # the dam's element on the face itself, where the water field is not defined)
-        pts = [(x - 1e-3, max(y, 1e-3)) for x, y in self._pts]
-        return list(pressure_at(self.ac.W, p, pts))
+        if getattr(self, "_probe", None) is None:
+            from ..fe.acoustic import PressureProbe
+            # stations on the face: evaluate 1 mm inside the water (the point search may return
+            # the dam's element on the face itself, where the water field is not defined)
+            pts = [(x - 1e-3, max(y, 1e-3)) for x, y in self._pts]
+            self._probe = PressureProbe(self.ac.W, pts)
+        return list(self._probe(p))
 
     def _face_ax(self, acc):
         """x-acceleration of the dam at the face stations (elevations self.ys)."""

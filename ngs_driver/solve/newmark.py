@@ -48,7 +48,7 @@ from .damping import LowRankFactor
 from .integrator import Integrator
 from .joint_laws import initial_stiffness, reference_gap
 from .krylov import gmres_lu, lu_solve_into
-from .products import FusedPair, pair_products, step_products
+from .products import FusedPair, pair_products, step_products, step_products5
 from .sparse import SparseFactor
 
 __all__ = ["NewmarkSolver", "StepReport", "SolverError", "SparseFactor"]
@@ -568,8 +568,8 @@ class NewmarkSolver:
             rhs = np.empty(self.ndof)
             f = np.ascontiguousarray(f_next, dtype=np.float64)
             nx = self._rhs_next
-            if (nx is not None and nx[0] == h and nx[1] is self.u and nx[2] is self.v
-                    and nx[3] is self.a):                 # formed by step_products
+            if (nx is not None and len(nx) == 6 and nx[0] == h and nx[1] is self.u
+                    and nx[2] is self.v and nx[3] is self.a):     # formed by step_products
                 _rhs_combine(nx[4], nx[5], c, f, rhs)
             else:
                 if self._rhs_work is None:
@@ -585,6 +585,20 @@ class NewmarkSolver:
                     pair_products(mc.indptr, mc.indices, mc.Ax, mc.Bx, x, y, om, oc)
                     oc += self._P.product(y)
                     _rhs_combine(om, oc, c, f, rhs)
+            if getattr(self, "ext", None) is not None:
+                rhs += self.ext.rhs(h)
+            return rhs
+        if self._mc is not None:          # HHT / generalized alpha: the products in one pass
+            nx = self._rhs_next
+            if (nx is not None and len(nx) == 8 and nx[0] == h and nx[1] is self.u
+                    and nx[2] is self.v and nx[3] is self.a):      # formed by step_products
+                Mx, Cy, Ku, Cv = nx[4:]
+            else:
+                Ku, _, Mx, Cy, Cv = self._products_alpha(h)
+            af = -al
+            f_n = self.f if self.f is not None else f_next
+            r_n = Ku + self._fint(self.t) + Cv
+            rhs = Mx + c * Cy + (c * f_next + af * f_n) - af * r_n
             if getattr(self, "ext", None) is not None:
                 rhs += self.ext.rhs(h)
             return rhs
@@ -1091,8 +1105,12 @@ class NewmarkSolver:
         next step of size dt, which ``_rhs`` then takes instead of forming them (kept while
         u, v, a are the same arrays: the committed fields are replaced, never modified in
         place)."""
-        if self._mc is None or not self.integrator.plain:
+        if self._mc is None:
             return None
+        if not self.integrator.plain:
+            Ku, Mv, Mx, Cy, Cv = self._products_alpha(self.dt)
+            self._rhs_next = (self.dt, self.u, self.v, self.a, Mx, Cy, Ku, Cv)
+            return Ku, Mv
         mc = self._mc
         c0, c1, c2, c3, c4, c5 = self._coeffs(self.dt)
         if self._rhs_work is None:
@@ -1107,6 +1125,27 @@ class NewmarkSolver:
             Cy += self._P.product(y)
         self._rhs_next = (self.dt, self.u, self.v, self.a, Mx, Cy)
         return Ku, Mv
+
+    def _products_alpha(self, h):
+        """(K u, M v, M x, C y, C v) of the committed state for a step h of HHT / generalized
+        alpha in one compiled pass: x = (1 - am)(c0 u + c2 v + c3 a) - am a (the inertia at the
+        alpha_m point), y = c1 u + c4 v + c5 a; the low-rank damping part added to C y, C v."""
+        mc = self._mc
+        c0, c1, c2, c3, c4, c5 = self._coeffs(h)
+        am = self.alpha_m
+        cm = 1.0 - am
+        if self._rhs_work is None:
+            self._rhs_work = np.empty((4, self.ndof))
+        x, y = self._rhs_work[0], self._rhs_work[1]
+        _rhs_vectors(self.u, self.v, self.a, np.array([cm * c0, cm * c2, cm * c3 - am]),
+                     np.array([c1, c4, c5]), x, y)
+        Ku, Mv, Mx, Cy, Cv = (np.empty(self.ndof) for _ in range(5))
+        step_products5(mc.indptr, mc.indices, mc.Ax, mc.Bx, mc.Cx, self.u, self.v, x, y, Ku,
+                       Mv, Mx, Cy, Cv)
+        if self._P is not None:
+            Cy += self._P.product(y)
+            Cv += self._P.product(self.v)
+        return Ku, Mv, Mx, Cy, Cv
 
     def energy(self):
         """Kinetic + elastic (bulk + interface at K0) energy of the committed state; exact
