@@ -267,3 +267,19 @@ def test_verification_script_fast(tmp_path, study):
                  "scaling_times.png", "scaling.md"):
         assert (tmp_path / name).stat().st_size > 0
     assert "| b [m] |" in (tmp_path / "scaling.md").read_text()
+
+
+def test_scene_law_keeps_its_contact_stiffness_through_the_size_scaling():
+    """interface.contact_stiffness is the stick stiffness of friction for the whole run: the
+    size-scale update of a scene's law keeps it (it was reset to the reference cohesive shear
+    stiffness), and the contact's penalty and intact stiffness too."""
+    from ngs_driver.scene import load_scene
+    from ngs_driver.setup import build_law, build_scaling
+    sc = load_scene("koyna", ["interface.contact_stiffness=3.3e11"])
+    law = build_law(sc)
+    scal = build_scaling(sc, law)
+    for b in (0.0, 2.5, 70.0):
+        new = scal.update(law, b)
+        assert new.friction.penalty == 3.3e11
+        kint, cn = new.contact.as_array(new.cohesive)[:2]
+        assert kint == cn == 3.3e11

@@ -80,7 +80,7 @@ def describe(scene) -> dict:
                 "law": law_parts(scene),
                 "reference_l_Nc": l_nc,
                 "g_max_over_l_Nc": scene.interface.g_max / l_nc,
-                "damping": f"Rayleigh {scene.damping.ratio:g} at "
+                "damping": f"{scene.damping.model} {scene.damping.ratio:g} at "
                            + (f"{list(scene.damping.frequencies)} Hz"
                               if scene.damping.frequencies else
                               f"modes {list(scene.damping.modes)}"),
@@ -89,8 +89,11 @@ def describe(scene) -> dict:
                                   "peak_g": [float(v) for v in gm.peak_g()],
                                   "dt": gm.dt, "duration": gm.duration,
                                   "window_note": window_note(scene, gm)},
-                "time": f"{n} steps of {t.dt} s to {t.duration} s, Newmark beta "
-                        f"{t.newmark_beta}, gamma {t.newmark_gamma}",
+                "time": f"{n} steps of {t.dt} s to {t.duration} s, " + (
+                    f"Newmark beta {t.newmark_beta}, gamma {t.newmark_gamma}"
+                    if t.integrator == "newmark" else
+                    f"{t.integrator} rho_inf {t.rho_inf}")
+                    + f"; collapse limits: slip {t.max_slip} m, rotation {t.max_rotation} rad",
                 "formulation": FORMULATION,
                 "checkpoint_every": scene.output.checkpoint_every,
                 "vtk_every": scene.output.vtk_every,

@@ -82,7 +82,10 @@ def build_scaling(tbl, law):
     from interfacelaw.scaling import SizeScaling
 
     f_ref = i.friction if i.friction > 0 else 0.3
-    return SizeScaling(law.cohesive, f_ref=f_ref)
+    # the stick stiffness of friction stays the joint's contact stiffness as the law scales
+    # (docs/sliding.md §3), not the reference cohesive shear stiffness
+    penalty = law.friction.penalty if law.friction is not None else "reference"
+    return SizeScaling(law.cohesive, f_ref=f_ref, friction_penalty=penalty)
 
 
 def law_parts(tbl) -> dict:
