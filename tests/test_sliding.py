@@ -101,3 +101,28 @@ def test_trapezoidal_rule_rattles_generalized_alpha_does_not(res):
     lo, hi = ga["N_over_W_after_pulse"]
     assert 0.7 < lo <= hi < 1.3
     assert ga["E_alg_over_input"] > 0
+
+
+def test_collapse_by_slip_stops_when_the_rigid_block_passes_max_slip(tmp_path):
+    """sliding_block with time.max_slip = 2 cm: the collapse rule stops the run at the first step
+    whose slip passes 2 cm, and the exact rigid block (Newmark 1965, same pulse) passes 2 cm at
+    t* = 0.26786 s. The stop must fall in [t*, t* + 2 dt]: one step of detection (the rule is
+    checked at the step ends) and one for the elastic block's compliance and the trapezoid
+    error (the permanent slip is within 0.1 %, test above). A collapsed run gets no
+    post-earthquake solve: post_earthquake.skipped, sliding_fs null, criterion not met."""
+    from ngs_driver.run.dam import run
+    from ngs_driver.scene import load_scene
+    sc = load_scene("sliding_block", ["time.max_slip=0.02", "time.duration=1.0"])
+    s = run(sc, tmp_path, progress=False, plots=False)
+    g, A, T, f = 9.81, 0.8 * 9.81, 0.5, 0.5
+    t = np.arange(0.0, 0.6, 1e-5)
+    rb = rigid_block_slip(t, np.where(t <= T, A * np.sin(np.pi * t / T), 0.0), f, g=g)
+    t_star = t[np.argmax(np.abs(rb) >= 0.02)]
+    c = s["collapse"]
+    assert c is not None and c["measure"] == "slip" and c["joint"] == "base"
+    assert t_star <= c["time"] <= t_star + 2 * sc.time.dt, (c["time"], t_star)
+    assert abs(c["value"]) >= 0.02
+    pe = s["post_earthquake"]
+    assert pe["skipped"] is True and pe["converged"] is False
+    assert pe["joints"]["base"]["sliding_fs"] is None
+    assert pe["joints"]["base"]["meets_criterion"] is False

@@ -9,12 +9,19 @@ import numpy as np
 from .files import atomic_write_text, read_csv
 from .plots import damage_xmax, plot_crack_length, plot_crest, plot_damage_profiles
 
+def _num(v) -> float:
+    return float("nan") if v is None else v
+
+
 def format_summary(s: dict) -> str:
     r = s["results"]
     tm = s["timings"]
     ch = s["characteristic_times"]
+    stop = s.get("stopped") or {}
+    done = (f"stopped at step {stop['step']} of {s['n_steps']} (t = {stop['t']:.4g} s: "
+            f"{stop['reason']})" if stop.get("step") is not None else f"{s['n_steps']} steps")
     lines = [
-        f"[{s['scene']['name']}] done: {s['n_steps']} steps; record {s['label']}",
+        f"[{s['scene']['name']}] done: {done}; record {s['label']}",
         f"  Eq. 11: t1 = {ch['t1']:.3e} s, t2 = {ch['t2']:.3e} s (c_L = {ch['c_L']:.0f} m/s)",
         "  frequencies [Hz]: " + " ".join(f"{f:.3f}" for f in s["frequencies_hz"]),
         f"  max D at heel {r.get('max_D_heel', 0):.4g} (D=1 at t = "
@@ -31,10 +38,15 @@ def format_summary(s: dict) -> str:
         p = (pe or {}).get("joints", {}).get(name, {})
         lines.append(f"  {name}: sliding FS static {st['sliding_fs']:.3g}, min "
                      f"{d.get('min_sliding_fs') or float('nan'):.3g}, post-earthquake "
-                     f"{p.get('sliding_fs', float('nan')):.3g} (criterion 1.3: "
+                     f"{_num(p.get('sliding_fs')):.3g} (criterion 1.3: "
                      f"{'met' if p.get('meets_criterion') else 'NOT met'}); N' "
                      f"{st['normal_force']:.4g}, T {st['shear_force']:.4g}, U "
                      f"{st['uplift_force']:.4g} N/m")
+        jr = (s.get("joints") or {}).get(name) or {}
+        if "slip_max" in jr:
+            lines.append(f"  {name}: slip max {jr['slip_max']:.4g} m, residual "
+                         f"{jr['slip_residual']:.4g} m; block rotation max "
+                         f"{jr['rotation_max']:.4g} rad, residual {jr['rotation_residual']:.4g} rad")
     return "\n".join(lines)
 
 

@@ -488,7 +488,8 @@ class Analysis:
         self.timings["outputs"] = time.perf_counter() - t_out
         # post-earthquake static state from the final interface state (after final_state.npz)
         t_pe = time.perf_counter()
-        post = self.post_check.run(solver, self.f_base)
+        post = (self.post_check.collapsed(self.collapse) if self.collapse is not None
+                else self.post_check.run(solver, self.f_base))
         post["wall"] = time.perf_counter() - t_pe
         safety_sum = self.safety.summary(H, scene.time.dt)
         from ..post.safety_plots import write_safety_outputs

@@ -74,6 +74,17 @@ class PostEarthquakeCheck:
         return {"converged": ok, "newton_iterations": iters, "criterion": FS_CRITERION,
                 "note": note, "joints": joints}
 
+    def collapsed(self, collapse: dict) -> dict:
+        """No post-earthquake state after a collapse (the run stopped with a block sliding
+        without bound or rotated past time.max_rotation; the small-kinematics static solve
+        would find a meaningless equilibrium): no FS, the criterion is not met."""
+        return {"converged": False, "newton_iterations": None, "criterion": FS_CRITERION,
+                "skipped": True,
+                "note": f"not computed: the run collapsed at t = {collapse['time']:.4g} s "
+                        f"({collapse['reason']})",
+                "joints": {name: {"sliding_fs": None, "meets_criterion": False}
+                           for name in self.joints.names}}
+
     def _mean_slips(self, g) -> np.ndarray:
         w = self.joints.w
         return np.array([np.dot(w[sl], g[sl, 1]) / w[sl].sum() for sl in self.joints.slices])
