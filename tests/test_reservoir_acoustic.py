@@ -42,6 +42,21 @@ def test_westergaard_exact_force_and_profile(rect):
     assert abs(F) < 0.99 * 7.0 / 12.0 * RHO * H ** 2
 
 
+def test_pressure_probe_is_pressure_at(rect):
+    """The probe's precomputed functionals give the field's values at its points (the
+    Westergaard solution and a random vector: not a smooth field, every shape function
+    counts) as NGSolve's own point evaluation does, to 1e-12 of the largest pressure (both
+    sum the same products of shape functions and dofs)."""
+    W = ac.water_matrices(rect, C, False, 1.0, "radiation")
+    pts = [(-1.0, 0.5), (-0.3, 45.2), (-17.7, 91.0), (-250.0, 3.3), (0.0, 60.0)]
+    probe = ac.PressureProbe(W, pts)
+    rng = np.random.default_rng(3)
+    for p in (ac.rigid_wall_response(W, RHO).real, rng.standard_normal(len(W.free))):
+        want = ac.pressure_at(W, p, pts)
+        assert np.abs(probe(p) - want).max() <= 1e-12 * np.abs(p).max()
+        assert np.abs(want).max() > 0
+
+
 @pytest.mark.parametrize("alpha,ratios", [(1.0, (0.3, 0.6, 0.8)), (0.5, (0.5, 0.9, 1.0, 1.5)),
                                           (0.0, (1.0, 1.5))])
 def test_compressible_frequency_response(rect, alpha, ratios):

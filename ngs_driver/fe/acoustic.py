@@ -328,22 +328,41 @@ def westergaard_series(y, H: float, rho: float = 1000.0, a: float = 1.0, omega: 
 
 
 class PressureProbe:
-    """p at fixed points of the water mesh, for many pressure vectors: the GridFunction and the
-    points' mesh locations are found once (``pressure_at`` does both at every call)."""
+    """p at fixed points of the water mesh, for many pressure vectors. p(x) is a linear
+    functional of the element's dofs: the functional of each point is found once (the shape
+    functions of its element evaluated at it, through a GridFunction and a unit vector per
+    dof) and kept as a sparse matrix over the free dofs, so each call is one sparse product
+    (``pressure_at`` searches the mesh at every call)."""
 
     def __init__(self, W: WaterMatrices, pts):
         import ngsolve as ngs
+        import scipy.sparse as sp
 
         self.W = W
-        self.gf = ngs.GridFunction(W.Vp)
-        self.full = np.zeros(W.Vp.ndof)
-        mesh = W.Vp.mesh
-        self.mips = [mesh(float(x), float(y)) for x, y in pts]
+        Vp = W.Vp
+        gf = ngs.GridFunction(Vp)
+        vec = gf.vec.FV().NumPy()
+        mesh = Vp.mesh
+        rows, cols, vals = [], [], []
+        for i, (x, y) in enumerate(pts):
+            mp = mesh(float(x), float(y))
+            if mp.nr < 0:
+                raise ValueError(f"pressure probe point ({x}, {y}) is outside the mesh")
+            for d in Vp.GetDofNrs(ngs.ElementId(ngs.VOL, mp.nr)):
+                if d < 0:
+                    continue
+                vec[:] = 0.0
+                vec[d] = 1.0
+                v = gf(mp)
+                if v != 0.0:
+                    rows.append(i)
+                    cols.append(d)
+                    vals.append(v)
+        E = sp.csr_matrix((vals, (rows, cols)), shape=(len(pts), Vp.ndof))
+        self.E = E[:, W.free].tocsr()
 
     def __call__(self, p_free) -> np.ndarray:
-        self.full[self.W.free] = np.real(p_free)
-        self.gf.vec.FV().NumPy()[:] = self.full
-        return np.array([self.gf(mp) for mp in self.mips])
+        return self.E @ np.real(p_free)
 
 
 def pressure_at(W: WaterMatrices, p_free: np.ndarray, pts):
