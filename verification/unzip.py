@@ -401,7 +401,7 @@ def reading(res) -> list[str]:
            f"m/s; a front at c_R needs {1e3 * Lb / sp['c_R']:.1f} ms), and "
            f"{100 * fine['acausal_fraction']:.0f} % of the base debonds before a P wave from "
            f"the first debonded point could reach it: the base fails everywhere at once "
-           f"(figure, bottom row), each point on its own, not by a crack running from the "
+           f"(figure, bottom row), each point by its own slip, not by a crack running from the "
            f"heel.", "",
            "**Mechanism: the rate law's unbounded damage rate, made global by the size-scale "
            "update.** (1) docs/law.md §6.3 and interfacelaw/_kernels.py (form 2): "
