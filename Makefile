@@ -34,6 +34,7 @@ bench: $(STAMP)
 	$(VPY) -m pip install --quiet -e ".[bench]"
 	$(VPY) -m pytest -q tests/bench --benchmark-only --benchmark-json=.benchmarks.json
 	$(VPY) verification/write_benchmarks.py
+	$(VPY) verification/bench_speed2.py
 
 # the long Koyna benchmark study (DOF/point scaling, full 10 s runs, OpenSeesPy): ~15 min
 bench-koyna: $(STAMP)
