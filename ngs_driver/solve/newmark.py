@@ -203,6 +203,8 @@ class StepReport:
     residuals   : final relative residual norm of each accepted sub-step
     event_cuts  : converged attempts redone with half the sub-step because a sliding joint
                   stopped or reversed inside them (friction events, ``NewmarkSolver.step``)
+    relax_steps : static only: dynamic steps of the relaxations at a limit load
+                  (``NewmarkSolver._relax``), one entry per relaxation
     n_active    : number of points not in their initial elastic state at the end
     wall        : wall time of the call [s]
     """
@@ -213,6 +215,7 @@ class StepReport:
     iters_per_substep: list = field(default_factory=list)
     residuals: list = field(default_factory=list)
     event_cuts: int = 0
+    relax_steps: list = field(default_factory=list)
     n_active: int = 0
     wall: float = 0.0
 
@@ -1001,15 +1004,75 @@ class NewmarkSolver:
                 rep.cuts += 1
                 hf /= 2
                 if hf < Fraction(1, 2 ** 10):
-                    raise SolverError(f"static solve did not converge in {self.max_iter} "
-                                      f"iterations, even with the load in 1/1024 increments "
-                                      f"(relative residual {last[-1]:.3e})")
+                    # no equilibrium next to the committed one, even 1/1024 of the load on:
+                    # a limit load (a crack tip at its peak traction whose advance needs less
+                    # load: the Jacobian's determinant changes sign across the peak kink). The
+                    # crack runs at constant load: followed by damped dynamics at the load fe
+                    # until the static solve from the moving state converges (``_relax``)
+                    nrel = self._relax(fe)
+                    if nrel is None:
+                        raise SolverError(
+                            f"static solve did not converge in {self.max_iter} iterations, "
+                            f"even with the load in 1/1024 increments (relative residual "
+                            f"{last[-1]:.3e}), nor after {self.relax_max} steps of damped "
+                            f"dynamics at the load {float(end):.6g} of the increment")
+                    rep.relax_steps.append(nrel)
+                    pos = end
         self.v = np.zeros(self.ndof)
         self.a = np.zeros(self.ndof)
         rep.n_active = int(self._active.sum())
         rep.wall = time.perf_counter() - t0
         self.history.append(rep)
         return rep
+
+    # static limit loads (``_relax``): at most this many dynamic steps of size dt per
+    # relaxation, a static attempt from the moving state every relax_check steps
+    relax_max = 5000
+    relax_check = 25
+
+    def _relax(self, f):
+        """Damped dynamics (the solver's own M, C, integrator and dt; no ground motion, no
+        water stepper: ``ext`` is off) from the committed static state (at rest) under the
+        constant load f, until a static attempt at f from the current state converges; that
+        equilibrium is committed (v = a = 0, time and caches as before). Returns the number of
+        dynamic steps, or None (nothing committed, the state before the call restored) when
+        no static attempt converged within ``relax_max`` steps or a step failed."""
+        saved = dict(u=self.u, v=self.v, a=self.a, f=self.f, time=self.time,
+                     state=self.state, t=self.t, g=self.g, phi=self._phi, act=self._active,
+                     slip_sign=self._slip_sign, cache=self._cache, scache=self._static_cache,
+                     ext=getattr(self, "ext", None), nhist=len(self.history))
+        self.ext = None
+        self._cache = OrderedDict()          # the dynamic factorisations here lack the water
+        self._rhs_next = None
+        done = None
+        try:
+            self.v = np.zeros(self.ndof)
+            self.initial_acceleration(f)
+            for k in range(1, self.relax_max + 1):
+                self.step(f)
+                if k % self.relax_check == 0:
+                    res = self._attempt(None, f)
+                    if res[0]:
+                        self._commit(None, f, res)
+                        done = k
+                        break
+        except SolverError:
+            done = None
+        finally:
+            if done is None:
+                self.u, self.v, self.a, self.f = (saved[k] for k in ("u", "v", "a", "f"))
+                self.state, self.t, self.g = saved["state"], saved["t"], saved["g"]
+                self._phi, self._active = saved["phi"], saved["act"]
+            self.v = np.zeros(self.ndof)
+            self.a = np.zeros(self.ndof)
+            self.time = saved["time"]
+            self._slip_sign = saved["slip_sign"]
+            self._cache = saved["cache"]
+            self._static_cache = saved["scache"]
+            self.ext = saved["ext"]
+            self._rhs_next = None
+            del self.history[saved["nhist"]:]
+        return done
 
     def step(self, f_next) -> StepReport:
         """Advance by dt to the load ``f_next``; on non-convergence the sub-step is halved and
