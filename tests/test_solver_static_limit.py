@@ -1,4 +1,4 @@
-"""The static solve past a limit load (branch pinestatic): Pine Flat on its rock block under
+"""The static solve past a limit load: Pine Flat on its rock block under
 dead load and full pool, no uplift. The brittle base joint (G_I = 250 N/m) cracks at the heel;
 each advance of the crack tip is a limit load under load control (the point at peak traction
 switches from its elastic to its softening branch and the determinant of the condensed
@@ -32,3 +32,21 @@ def test_static_passes_heel_crack_limit_loads(tmp_path):
     x = np.asarray(a.joints.x)
     assert deb.any() and x[deb].max() < 6.0
     assert np.all(a.solver.v == 0.0) and a.solver.time == 0.0
+
+
+def test_static_without_equilibrium_says_the_dam_slides(tmp_path):
+    """A cracked block (sliding_block, f = 0.02) under 9 m of water: H = rho g 9^2/2 =
+    397 kN/m against f W = 0.02 x 40 x 10 x 2500 x 9.81 = 196 kN/m -- no static equilibrium at
+    any fraction of the load (both scale together). The relaxation at the first increment slides
+    the block; with relax_slip_max lowered to 1 mm (the block's acceleration at 1/1024 of the
+    load is ~2e-4 m/s^2: 0.05 m would take ~20 s of relaxation) the solve must stop with the
+    message that names the cause, not the generic non-convergence."""
+    import pytest
+
+    from ngs_driver.solve.newmark import SolverError
+    scene = load_scene("sliding_block", ["interface.friction=0.02", "reservoir.level=9",
+                                         "time.duration=0.02"])
+    a = prepare(scene, str(tmp_path / "out"), progress=False, plots=False)
+    a.solver.relax_slip_max = 1e-3
+    with pytest.raises(SolverError, match="no static equilibrium.*slides before the earthquake"):
+        a.static()

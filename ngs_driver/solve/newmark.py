@@ -1010,12 +1010,20 @@ class NewmarkSolver:
                     # crack runs at constant load: followed by damped dynamics at the load fe
                     # until the static solve from the moving state converges (``_relax``)
                     nrel = self._relax(fe)
+                    if nrel is None and self.relax_runaway is not None:
+                        slid, tr = self.relax_runaway
+                        raise SolverError(
+                            f"no static equilibrium: at {float(end):.4g} of the static load a "
+                            f"joint slid {slid:.3g} m in {tr:.3g} s of damped motion at the held "
+                            "load (friction and the bonded part left cannot hold the static "
+                            "loads; the dam slides before the earthquake)")
                     if nrel is None:
                         raise SolverError(
                             f"static solve did not converge in {self.max_iter} iterations, "
                             f"even with the load in 1/1024 increments (relative residual "
                             f"{last[-1]:.3e}), nor after {self.relax_max} steps of damped "
-                            f"dynamics at the load {float(end):.6g} of the increment")
+                            f"dynamics at the load {float(end):.6g} of the increment (no "
+                            "equilibrium found: can the joints hold the static loads?)")
                     rep.relax_steps.append(nrel)
                     pos = end
         self.v = np.zeros(self.ndof)
@@ -1029,6 +1037,10 @@ class NewmarkSolver:
     # relaxation, a static attempt from the moving state every relax_check steps
     relax_max = 5000
     relax_check = 25
+    # a relaxation in which some point of a joint slides more than this has no equilibrium to
+    # find (friction alone cannot hold the static loads: the dam slides off); it stops there
+    # (0.05 m: the post-earthquake check's bound of small-displacement statics)
+    relax_slip_max = 0.05
 
     def _relax(self, f):
         """Damped dynamics (the solver's own M, C, integrator and dt; no ground motion, no
@@ -1045,12 +1057,18 @@ class NewmarkSolver:
         self._cache = OrderedDict()          # the dynamic factorisations here lack the water
         self._rhs_next = None
         done = None
+        self.relax_runaway = None
+        g0 = np.asarray(self.g, float).reshape(-1, 2)[:, 1].copy()
         try:
             self.v = np.zeros(self.ndof)
             self.initial_acceleration(f)
             for k in range(1, self.relax_max + 1):
                 self.step(f)
                 if k % self.relax_check == 0:
+                    slid = float(np.abs(np.asarray(self.g).reshape(-1, 2)[:, 1] - g0).max())
+                    if slid > self.relax_slip_max:
+                        self.relax_runaway = (slid, k * self.dt)
+                        break
                     res = self._attempt(None, f)
                     if res[0]:
                         self._commit(None, f, res)
