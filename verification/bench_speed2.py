@@ -36,6 +36,7 @@ for p in (ROOT, ROOT / "tests" / "bench"):
     if str(p) not in sys.path:
         sys.path.insert(0, str(p))
 
+from ngs_driver.post.files import atomic_write_text  # noqa: E402
 from verification.bench_koyna import loadavg, parse_time_v  # noqa: E402
 
 HEADING = "## SPEED-2 targets (issue 24) — `verification/bench_speed2.py`"
@@ -186,9 +187,7 @@ def write(md: pathlib.Path, lines: list[str]):
             out.append(line)
     if not done:
         out += [""] + lines
-    tmp = md.with_suffix(".tmp")
-    tmp.write_text("\n".join(out).rstrip("\n") + "\n")
-    os.replace(tmp, md)
+    atomic_write_text(md, "\n".join(out).rstrip("\n") + "\n")
 
 
 def main(fast: bool = False, md=None, repeats: int = 2) -> dict:
@@ -209,7 +208,7 @@ def main(fast: bool = False, md=None, repeats: int = 2) -> dict:
     write(md, section(r, fast))
     out = md.parent / "verification" / "out" if md.parent == ROOT else md.parent
     out.mkdir(parents=True, exist_ok=True)
-    (out / "bench_speed2.json").write_text(json.dumps(r, indent=1, default=float))
+    atomic_write_text(out / "bench_speed2.json", json.dumps(r, indent=1, default=float))
     return r
 
 

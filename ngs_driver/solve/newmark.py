@@ -219,6 +219,19 @@ class StepReport:
     n_active: int = 0
     wall: float = 0.0
 
+    def accepted(self, res, h=None):
+        """Book a converged attempt ``res`` (the Newton result tuple) of sub-step h."""
+        self.iterations += res[7]
+        self.iters_per_substep.append(res[7])
+        self.residuals.append(res[8])
+        if h is not None:
+            self.dts.append(h)
+
+    def rejected(self, res):
+        """Book an attempt that did not converge (its sub-step is cut)."""
+        self.iterations_failed += res[7]
+        self.cuts += 1
+
 
 def _relative_dofs(BI):
     """B_I = G Delta with Delta the relative displacements of the interface DOFs.
@@ -993,15 +1006,12 @@ class NewmarkSolver:
             last = res
             if res[0]:
                 self._commit(None, fe, res)
-                rep.iterations += res[7]
-                rep.iters_per_substep.append(res[7])
-                rep.residuals.append(res[8])
+                rep.accepted(res)
                 pos = end
                 if hf < 1 and pos % (2 * hf) == 0:
                     hf *= 2
             else:
-                rep.iterations_failed += res[7]
-                rep.cuts += 1
+                rep.rejected(res)
                 hf /= 2
                 if hf < Fraction(1, 2 ** 10):
                     # no equilibrium next to the committed one, even 1/1024 of the load on:
@@ -1118,16 +1128,12 @@ class NewmarkSolver:
                 signs = self._slip_signs(res[4])
                 self._commit(h, fe, res)
                 self._slip_sign = signs
-                rep.iterations += res[7]
-                rep.iters_per_substep.append(res[7])
-                rep.residuals.append(res[8])
-                rep.dts.append(h)
+                rep.accepted(res, h)
                 pos = end
                 if hf < 1 and pos % (2 * hf) == 0:
                     hf *= 2
             else:
-                rep.iterations_failed += res[7]
-                rep.cuts += 1
+                rep.rejected(res)
                 hf /= 2
                 if self.dt * float(hf) < self.min_dt * (1 - 1e-12):
                     rep.wall = time.perf_counter() - t0
