@@ -404,8 +404,7 @@ class Analysis:
         base = joints.slices[0]
         if jm["base_n_debonded"] < base.stop - base.start and solver.g[0, 0] > self.heel["open"]:
             self.heel = {"u": solver.u.copy(), "t": float(tk), "open": float(solver.g[0, 0])}
-        f_now = self.f_base + (self.uplift.load(self.uplift.p) if self.uplift.active else 0.0)
-        coll = self.stop_rule.check(k, tk, scene.time.dt, jm, f_now, joints, scan)
+        coll = self.stop_rule.check(k, tk, scene.time.dt, jm, self._static_loads, joints, scan)
         if coll is not None:
             self.collapse = coll
             self.stopped = {"reason": f"collapse: {coll['reason']}", "t": coll["time"],
@@ -421,6 +420,10 @@ class Analysis:
             # what the solver carries besides the committed state (a reused Jacobian)
             solver.forget_jacobian()
         return k < self.n_steps
+
+    def _static_loads(self):
+        """Gravity, water and tailwater with the uplift now (the collapse rule's FS_static)."""
+        return self.f_base + (self.uplift.load(self.uplift.p) if self.uplift.active else 0.0)
 
     def _start_loop(self):
         from tqdm import tqdm
