@@ -23,6 +23,7 @@ for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(_var, "1")
 
 import argparse  # noqa: E402
+import gc
 import json
 import pathlib
 import subprocess
@@ -207,6 +208,7 @@ def cmd_run_paper(a) -> int:
         rc = _run_one(sc, d, resume, not a.quiet)
         if rc:
             return rc
+        gc.collect()        # the first run's model and factors are freed before the second
     return _compare({lab: d for lab, (sc, d) in scenes.items()}, base / "koyna_compare")
 
 

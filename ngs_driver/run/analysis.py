@@ -480,6 +480,7 @@ class Analysis:
         """Outputs, the post-earthquake check and summary.json (written last: the run is
         complete); the checkpoints are removed. Returns the summary dict."""
         self.close()
+        self.solver.release_steps()        # memory for the outputs (the loop is over)
         scene, solver, joints, out = self.scene, self.solver, self.joints, self.out
         self.timings["dynamic"] = self._dynamic_wall()
         snaps = self.snapshots

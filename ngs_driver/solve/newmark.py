@@ -1184,6 +1184,12 @@ class NewmarkSolver:
         if self._static_cache is not None:
             self._static_cache.jac_lu = None
 
+    def release_steps(self):
+        """Drop the factorisations of the time-step sizes (the time loop is over): each is
+        ~25 MB on the paper scene and a run with cuts holds up to ``max_cache`` of them; the
+        static one (post-earthquake solve) is kept. A later ``step`` factorises anew."""
+        self._cache.clear()
+
     # ------------------------------------------------------------------ diagnostics
     def step_products(self):
         """(K u, M v) of the committed state, bitwise scipy's ``K @ u`` and ``M @ v`` (the
