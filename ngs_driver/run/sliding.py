@@ -39,6 +39,7 @@ class JointPairing:
             Bup.eliminate_zeros()
             self.joints.append((name, sl, face, Bup))
         self.shift = np.zeros(B.shape[0] // 2)          # s at the last pairing, per point
+        self._limits = {}     # joint -> the slip that calls a pairing, per point (by shift)
         self.repairs = 0
         self.shape = B.shape
 
@@ -53,9 +54,10 @@ class JointPairing:
         g = solver.g
         due = []
         for name, sl, face, Bup in self.joints:
-            s = g[sl, 1]
-            d = np.abs(s - self.shift[sl])
-            if np.any(d > self.tol * face.size_at(self.x[sl] + self.shift[sl])):
+            lim = self._limits.get(name)
+            if lim is None:           # changes only with the shift: formed once per pairing
+                lim = self._limits[name] = self.tol * face.size_at(self.x[sl] + self.shift[sl])
+            if np.any(np.abs(g[sl, 1] - self.shift[sl]) > lim):
                 due.append((name, sl, face, Bup))
         if not due:
             return False
@@ -68,6 +70,7 @@ class JointPairing:
             new = (Bup + low).tolil()
             B[2 * sl.start:2 * sl.stop] = new
             self.shift[sl] = s
+            self._limits.pop(name, None)
             opened[sl] = off_face
         B = B.tocsr()
         B.eliminate_zeros()
@@ -88,6 +91,7 @@ class JointPairing:
         if "pairing_shift" not in arrs or not self.joints:
             return
         self.shift = np.array(arrs["pairing_shift"], dtype=np.float64)
+        self._limits = {}
         self.repairs = int(np.asarray(arrs["pairing_repairs"])[0])
         if offset is None:
             return
