@@ -233,6 +233,10 @@ class Output:
 class Solver:
     tol_residual: float = _f(1e-8, lo=0.0, hi=1.0, lo_open=True)
     max_iter: int = _f(30, lo=1, hi=10000)
+    stall_iterations: int = _f(6, lo=0, hi=10000,
+                               doc="a dynamic Newton attempt is cut when the best residual of "
+                                   "its last this-many iterations is not below half the best "
+                                   "before them; 0: only max_iter cuts")
     min_dt: float = _f(1e-6, lo=0.0, hi=1.0, lo_open=True)
     pairing_tolerance: float = _f(0.25, lo=0.0, hi=10.0, lo_open=True,
                                   doc="finite sliding: a joint is paired anew with the face "

@@ -76,7 +76,8 @@ def make_solver(scene, model, C, law, C_lowrank=None):
                                  gamma=ts.newmark_gamma)
     return NewmarkSolver(model.K, model.M, C, model.interface.B, model.interface.w, law,
                          dt=ts.dt, integrator=integrator, C_lowrank=C_lowrank,
-                         tol_residual=sv.tol_residual, max_iter=sv.max_iter, min_dt=sv.min_dt)
+                         tol_residual=sv.tol_residual, max_iter=sv.max_iter,
+                         stall_iterations=sv.stall_iterations, min_dt=sv.min_dt)
 
 
 def _restart(scene, out, ckp, scene_d):
