@@ -35,6 +35,11 @@ def test_fast_section_written_from_the_runs(tmp_path):
     t1 = r2["t1"]
     assert t1["steps"] == 25
     assert t1["ratio"] == pytest.approx(t1["wall_s"]["nonlinear"] / t1["wall_s"]["elastic"])
+    fl = t1["floor"]                                    # the koyna mesh: 12 198 free DOFs
+    assert fl["ndof"] > 10000 and fl["nnz_L"] > 10 * fl["ndof"] and fl["steps"] == 25
+    assert fl["floor_s"] == pytest.approx(
+        fl["outside_s"] + 25 * (fl["solve_ms"] + fl["products_ms"]) / 1e3)
+    assert "the floor of target 1" in text
     t4 = r2["t4"]
     assert len(t4["runs"]) == 2 and all(x["peak_rss_MB"] > 100 for x in t4["runs"])
     assert t4["peak_rss_MB"] == max(x["peak_rss_MB"] for x in t4["runs"])

@@ -92,6 +92,51 @@ def target1(repeats: int, duration: float | None) -> dict:
             "steps": runs["nonlinear"][0]["steps_done"]}
 
 
+def t1_floor(nonlinear_run: dict, repeats: int = 300) -> dict:
+    """The linear algebra that every step of target 1 must do, timed alone on the koyna
+    mesh: one forward and one backward half of the factor of K + c0 M (the pattern of the
+    effective matrix; SuperLU MMD order, the solver's numba halves) and the one fused pass of
+    the five matrix-vector sums of a generalized-alpha step (``step_products5``), medians
+    of ``repeats``. Times the steps of the run, plus the run's own time outside its loop
+    (imports, mesh, modal, static, outputs: wall - dynamic): a lower bound of target 1's wall
+    for this mesh and this factor, whatever the Python around them costs."""
+    import numpy as np
+
+    from ngs_driver.fe.model import build_from_scene
+    from ngs_driver.scene import load_scene
+    from ngs_driver.solve.products import FusedPair, step_products5
+    from ngs_driver.solve.sparse import SparseFactor
+
+    sc = load_scene("koyna", list(T1_NL))
+    model = build_from_scene(sc)
+    dt = sc.time.dt
+    c0 = 4.0 / dt ** 2                             # 1 / (beta dt^2), beta = 1/4
+    F = SparseFactor((model.K + c0 * model.M).tocsc())
+    fp = FusedPair(model.M, model.M, model.K)      # (M, C, K): C has M's and K's pattern
+    n = model.K.shape[0]
+    rng = np.random.default_rng(0)
+    b, u, v, x, y = (rng.standard_normal(n) for _ in range(5))
+    outs = [np.empty(n) for _ in range(5)]
+
+    def med(f):
+        f()
+        ts = []
+        for _ in range(repeats):
+            t = time.perf_counter()
+            f()
+            ts.append(time.perf_counter() - t)
+        return statistics.median(ts)
+
+    t_solve = med(lambda: F.backward(F.forward(b)))
+    t_prod = med(lambda: step_products5(fp.indptr, fp.indices, fp.Ax, fp.Bx, fp.Cx, u, v, x,
+                                        y, *outs))
+    steps = nonlinear_run["steps_done"]
+    outside = nonlinear_run["wall_s"] - nonlinear_run["timings"]["dynamic"]
+    return {"ndof": int(n), "nnz_L": int(F.nnz), "solve_ms": 1e3 * t_solve,
+            "products_ms": 1e3 * t_prod, "steps": steps, "outside_s": outside,
+            "floor_s": outside + steps * (t_solve + t_prod)}
+
+
 def target3(n: int, rounds: int) -> dict:
     from test_bench_law import same_run_ratios
     l0 = loadavg()
@@ -232,6 +277,15 @@ def section(r: dict, fast: bool) -> list[str]:
              f"`{t1['runs']['elastic'][0]['command']}` | "
              f"{_load(t1['runs']['nonlinear'][0])} | {ok(nl <= 10)} (10 s), "
              f"{ok(t1['ratio'] <= 1.2)} (1.2×) |"]
+    fl = t1.get("floor")
+    if fl:
+        lines.append(
+            f"| 1'. the floor of target 1 on this mesh: the linear algebra no step can skip "
+            f"| {fl['floor_s']:.1f} s = {fl['outside_s']:.1f} s outside the time loop + "
+            f"{fl['steps']} steps × ({fl['solve_ms']:.2f} ms forward + backward half, "
+            f"{fl['ndof']} DOFs, {fl['nnz_L']} entries in L; + {fl['products_ms']:.2f} ms the "
+            f"five matrix-vector sums of the step) | `bench_speed2.t1_floor` (medians) | — | "
+            f"{'below' if fl['floor_s'] <= 10 else 'above'} 10 s |")
     if t2:
         ex = " + ".join(f"{lv:g} g: {v['wall_per_record_s']:.2f} s/s × {t2['suite_record_s']:.0f} s"
                         for lv, v in sorted(t2["per_level"].items(), key=lambda kv: float(kv[0])))
@@ -294,6 +348,7 @@ def main(fast: bool = False, md=None, repeats: int = 2, only=None) -> dict:
               "date": time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime())})
     if 1 in only:
         r["t1"] = target1(1 if fast else repeats, dur)
+        r["t1"]["floor"] = t1_floor(r["t1"]["runs"]["nonlinear"][0], 20 if fast else 300)
     if 3 in only:
         r["t3"] = target3(10 ** 4 if fast else 10 ** 6, 2 if fast else 15)
     if 4 in only:
