@@ -48,6 +48,7 @@ def test_fast_section_written_from_the_runs(tmp_path):
         t2 = r2["t2"]
         assert t2["components"] == 44 and t2["n_runs"] == 2 == len(t2["runs"])
         assert all(x["status"] == "ok" and x["wall_s"] > 0 for x in t2["runs"])
+        assert all(0 < x["setup_s"] < x["wall_s"] for x in t2["runs"])     # summary read
         serial = 0.0
         for lv, v in t2["per_level"].items():
             at = [x for x in t2["runs"] if x["level_g"] == float(lv)]

@@ -229,10 +229,14 @@ def target2(n_runs: int = T2_RUNS, workers: int = 2, duration: float | None = No
             raise RuntimeError(f"target 2: run {n}{c} at {lv} g: {r['errors']}")
         row = r["rows"][0]
         analysed = lengths[(n, c)] if duration is None else duration
+        summ = root / f"run{len(rows):02d}" / "runs" / row["id"] / "summary.json"
+        tim = json.loads(summ.read_text())["timings"] if summ.exists() else {}
         rows.append({"record": n, "component": c, "level_g": lv, "status": row["status"],
                      "collapse": row.get("collapse"), "wall_s": float(row["wall_s"]),
-                     "analysed_s": analysed,
-                     "record_s": lengths[(n, c)]})
+                     "analysed_s": analysed, "record_s": lengths[(n, c)],
+                     # what a process reusing one record's model, static state and
+                     # factorisation across its levels could save at most
+                     "setup_s": sum(tim.get(k, 0.0) for k in ("build", "modal", "static"))})
     suite_s = sum(lengths.values())
     per_level = {}
     for lv in T2_LEVELS:
@@ -244,8 +248,9 @@ def target2(n_runs: int = T2_RUNS, workers: int = 2, duration: float | None = No
                          "suite_hours_serial": rate * suite_s / 3600.0}
     serial = sum(v["suite_hours_serial"] for v in per_level.values()) * LEVELS / len(per_level)
     eff = sum(x["wall_s"] for x in rows) / (workers * wall)
+    setup_share = sum(x["setup_s"] for x in rows) / sum(x["wall_s"] for x in rows)
     return {"runs": rows, "n_runs": n_runs, "workers": workers, "wall_s": wall,
-            "efficiency": eff, "per_level": per_level, "suite_record_s": suite_s,
+            "efficiency": eff, "setup_share": setup_share, "per_level": per_level, "suite_record_s": suite_s,
             "components": len(lengths), "hours_serial": serial,
             "hours_workers": serial / (workers * eff), "window": window,
             "loadavg": [l0, loadavg()],
@@ -296,7 +301,9 @@ def section(r: dict, fast: bool) -> list[str]:
             f"{t2['workers']} workers ({t2['hours_serial']:.1f} h serial), extrapolated from a "
             f"measured subset of {t2['n_runs']} runs ({ncoll} collapsed; wall "
             f"{t2['wall_s']:.0f} s on {t2['workers']} workers, efficiency "
-            f"{t2['efficiency']:.2f}); by record length, per level (task wall per analysed "
+            f"{t2['efficiency']:.2f}; model, modal and static state {100 * t2['setup_share']:.1f} "
+            f"% of the task walls: the most a per-record reuse across levels could save); by "
+            f"record length, per level (task wall per analysed "
             f"second × the {t2['components']} components' {t2['suite_record_s']:.0f} s): "
             f"{ex}; runs in `verification/out/bench_speed2.json` | `{t2['command']}` | "
             f"{_load(t2)} | {ok(t2['hours_workers'] <= 2)} |")
