@@ -40,6 +40,11 @@ def test_fast_section_written_from_the_runs(tmp_path):
     assert fl["floor_s"] == pytest.approx(
         fl["outside_s"] + 25 * (fl["solve_ms"] + fl["products_ms"]) / 1e3)
     assert "the floor of target 1" in text
+    bd = t1["breakdown"]                                # every part timed, inside the step
+    assert bd["steps"] == 25 and all(ms > 0 for _, ms in bd["rows"])
+    assert all(ms < bd["total_ms"] for _, ms in bd["rows"][1:])
+    assert bd["bookkeeping_ms"] == pytest.approx(
+        sum(ms for label, ms in bd["rows"] if label.startswith("bookkeeping")))
     t4 = r2["t4"]
     assert len(t4["runs"]) == 2 and all(x["peak_rss_MB"] > 100 for x in t4["runs"])
     assert t4["peak_rss_MB"] == max(x["peak_rss_MB"] for x in t4["runs"])

@@ -94,13 +94,14 @@ def target1(repeats: int, duration: float | None) -> dict:
 
 def t1_floor(nonlinear_run: dict, repeats: int = 300) -> dict:
     """The linear algebra that every step of target 1 must do, timed alone on the koyna
-    mesh: one forward and one backward half of the factor of K + c0 M (the pattern of the
-    effective matrix; SuperLU MMD order, the solver's numba halves) and the one fused pass of
+    mesh: one forward and one backward half of the factor of K + c0 M + B^T W K0 B (the
+    pattern of the effective matrix; SuperLU MMD order, the solver's numba halves) and the one fused pass of
     the five matrix-vector sums of a generalized-alpha step (``step_products5``), medians
     of ``repeats``. Times the steps of the run, plus the run's own time outside its loop
     (imports, mesh, modal, static, outputs: wall - dynamic): a lower bound of target 1's wall
     for this mesh and this factor, whatever the Python around them costs."""
     import numpy as np
+    import scipy.sparse as sp
 
     from ngs_driver.fe.model import build_from_scene
     from ngs_driver.scene import load_scene
@@ -111,7 +112,9 @@ def t1_floor(nonlinear_run: dict, repeats: int = 300) -> dict:
     model = build_from_scene(sc)
     dt = sc.time.dt
     c0 = 4.0 / dt ** 2                             # 1 / (beta dt^2), beta = 1/4
-    F = SparseFactor((model.K + c0 * model.M).tocsc())
+    iface = model.interface                        # + the joints' K0 (their couplings fill L)
+    BtWB = iface.B.T @ sp.diags(9e10 * np.repeat(iface.w, 2)) @ iface.B
+    F = SparseFactor((model.K + c0 * model.M + BtWB).tocsc())
     fp = FusedPair(model.M, model.M, model.K)      # (M, C, K): C has M's and K's pattern
     n = model.K.shape[0]
     rng = np.random.default_rng(0)
@@ -135,6 +138,74 @@ def t1_floor(nonlinear_run: dict, repeats: int = 300) -> dict:
     return {"ndof": int(n), "nnz_L": int(F.nnz), "solve_ms": 1e3 * t_solve,
             "products_ms": 1e3 * t_prod, "steps": steps, "outside_s": outside,
             "floor_s": outside + steps * (t_solve + t_prod)}
+
+
+# (class, method, label) timed by ``t1_breakdown``: the solver's step and what it calls, then
+# the bookkeeping of ``Analysis.step`` around it; inclusive times (a row holds the rows it calls)
+BREAKDOWN = (
+    ("ngs_driver.run.analysis:Analysis", "step", "`Analysis.step`, everything"),
+    ("ngs_driver.run.uplift:Uplift", "step", "the solver's step (`Uplift.step` → `NewmarkSolver.step`)"),
+    ("ngs_driver.solve.sparse:SparseFactor", "forward", "— forward halves, whole vectors (structure and water)"),
+    ("ngs_driver.solve.sparse:SparseFactor", "backward", "— backward halves, whole vectors (structure and water)"),
+    ("ngs_driver.solve.sparse:SparseFactor", "backward_at", "— backward halves at the interface DOFs"),
+    ("ngs_driver.solve.sparse:SparseFactor", "forward_sparse", "— forward halves from the interface DOFs"),
+    ("ngs_driver.solve.fluid:FluidStepper", "rhs", "— the water's rows (`FluidStepper.rhs`)"),
+    ("ngs_driver.solve.fluid:FluidStepper", "commit", "— the water's state (`FluidStepper.commit`)"),
+    ("interfacelaw.law:InterfaceLaw", "evaluate", "— the interface law"),
+    ("ngs_driver.solve.newmark:NewmarkSolver", "step_products", "the step's products (K u, M v for the energy; M x, C y, C v for the next right-hand side)"),
+    ("ngs_driver.run.energy:EnergyBudget", "step", "bookkeeping: energy budget"),
+    ("ngs_driver.run.reservoir:ReservoirRun", "sample", "bookkeeping: reservoir stations"),
+    ("ngs_driver.run.joints:Joints", "scan", "bookkeeping: joint scan"),
+    ("ngs_driver.run.joints:Joints", "measures", "bookkeeping: joint measures"),
+    ("ngs_driver.run.safety:SlidingSafety", "step_measures", "bookkeeping: sliding safety"),
+    ("ngs_driver.run.sliding:JointPairing", "update", "bookkeeping: pairing check"),
+    ("ngs_driver.run.stopping:CollapseRule", "check", "bookkeeping: collapse rule"),
+    ("ngs_driver.run.history:History", "append", "bookkeeping: history"),
+)
+
+
+def t1_breakdown(duration: float | None = None) -> dict:
+    """Per-step wall of target 1's nonlinear run by part, in this process: each method of
+    ``BREAKDOWN`` wrapped with a timer (perf_counter, ~0.2 us a call), the run driven through
+    ``prepare`` / ``static`` / ``step``; ms per step of the time loop."""
+    import importlib
+
+    from ngs_driver.run import prepare
+    from ngs_driver.scene import load_scene
+
+    acc = {}
+    undo = []
+    for path, meth, label in BREAKDOWN:
+        mod, cls = path.split(":")
+        C = getattr(importlib.import_module(mod), cls)
+        f = getattr(C, meth)
+        undo.append((C, meth, f))
+
+        def timed(*a, _f=f, _k=label, **k):
+            t = time.perf_counter()
+            try:
+                return _f(*a, **k)
+            finally:
+                acc[_k] = acc.get(_k, 0.0) + time.perf_counter() - t
+        setattr(C, meth, timed)
+    try:
+        sets = list(T1_NL) + ([] if duration is None else [f"time.duration={duration}"])
+        a = prepare(load_scene("koyna", sets), tempfile.mkdtemp(prefix="speed2_parts_"),
+                    progress=False, plots=False)
+        a.static()
+        acc.clear()
+        while a.step():
+            pass
+        a.close()
+        steps = a.k
+    finally:
+        for C, meth, f in undo:
+            setattr(C, meth, f)
+    rows = [(label, 1e3 * acc.get(label, 0.0) / steps) for _, _, label in BREAKDOWN]
+    total = rows[0][1]
+    book = sum(ms for label, ms in rows if label.startswith("bookkeeping"))
+    return {"steps": steps, "rows": rows, "total_ms": total, "bookkeeping_ms": book,
+            "bookkeeping_share": book / total}
 
 
 def target3(n: int, rounds: int) -> dict:
@@ -318,6 +389,15 @@ def section(r: dict, fast: bool) -> list[str]:
     lines.append(f"| 4. peak memory of `make run` ≤ 600 MB | {t4['peak_rss_MB']:.0f} MB (the "
                  f"larger of its two commands) | {per} | {_load(t4['runs'][0])} | "
                  f"{ok(t4['peak_rss_MB'] <= 600)} |")
+    bd = t1.get("breakdown")
+    if bd:
+        lines += ["", f"Per-step wall of target 1's nonlinear run by part "
+                  f"(`bench_speed2.t1_breakdown`: the methods timed in-process, {bd['steps']} "
+                  f"steps, acoustic water, 12 198 free DOFs; a row includes the rows under it "
+                  f"(—); the bookkeeping is {100 * bd['bookkeeping_share']:.0f} % of the step):",
+                  "", "| part | ms/step | share |", "|---|---|---|"]
+        lines += [f"| {label} | {ms:.3f} | {100 * ms / bd['total_ms']:.0f} % |"
+                  for label, ms in bd["rows"]]
     return lines
 
 
@@ -356,6 +436,7 @@ def main(fast: bool = False, md=None, repeats: int = 2, only=None) -> dict:
     if 1 in only:
         r["t1"] = target1(1 if fast else repeats, dur)
         r["t1"]["floor"] = t1_floor(r["t1"]["runs"]["nonlinear"][0], 20 if fast else 300)
+        r["t1"]["breakdown"] = t1_breakdown(dur)
     if 3 in only:
         r["t3"] = target3(10 ** 4 if fast else 10 ** 6, 2 if fast else 15)
     if 4 in only:
