@@ -50,3 +50,41 @@ def test_static_without_equilibrium_says_the_dam_slides(tmp_path):
     a.solver.relax_slip_max = 1e-3
     with pytest.raises(SolverError, match="no static equilibrium.*slides before the earthquake"):
         a.static()
+
+
+def _pine_flat_limit(tmp_path, *extra):
+    scene = load_scene("pine_flat", ["time.duration=0.02", "uplift.model=none",
+                                     "reservoir.model=none", "mesh.h_coarse=6",
+                                     "mesh.growth=1.3", *extra])
+    return prepare(scene, str(tmp_path / "out"), progress=False, plots=False)
+
+
+def test_relaxation_on_a_massless_rock_block(tmp_path):
+    """The same limit loads on the massless rock block (M singular on the rock): the
+    relaxation starts from solve.massless's acceleration (M itself cannot be factorised:
+    "Factor is exactly singular" before; found by an IDA run of koyna_engineering, whose
+    foundation is massless). Same checks as above; the crack arrests within 6 m again."""
+    a = _pine_flat_limit(tmp_path, "geometry.foundation=massless")
+    M = a.model.M.tocsr()
+    assert (abs(M).sum(axis=1) == 0).any()          # the test has massless DOFs
+    a.static()
+    rep = a.solver.history[-1]
+    assert rep.relax_steps and rep.residuals[-1] <= a.solver.tol_residual
+    deb = np.asarray(a.solver.state.debonded, bool)
+    assert deb.any() and np.asarray(a.joints.x)[deb].max() < 6.0
+
+
+def test_static_without_relaxation_fails_at_the_limit_load(tmp_path):
+    """static(f, relax=False) (the post-earthquake check) stops at the first limit load with
+    the continuation's message, no damped dynamics run (no relax_steps booked)."""
+    import pytest
+
+    from ngs_driver.solve.newmark import SolverError
+    a = _pine_flat_limit(tmp_path)
+    s = a.solver
+    f = a.f_base if hasattr(a, "f_base") else None
+    assert f is not None
+    with pytest.raises(SolverError, match=r"1/1024 increments \(relative residual [^)]*\) "
+                                          r"\(no equilibrium found"):
+        s.static(f, relax=False)
+    assert all(not r.relax_steps for r in s.history)

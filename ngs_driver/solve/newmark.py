@@ -1009,9 +1009,10 @@ class NewmarkSolver:
             self.ext.commit(h)
 
     # ------------------------------------------------------------------ public steps
-    def static(self, f) -> StepReport:
+    def static(self, f, relax: bool = True) -> StepReport:
         """Solve K u + B^T W t(B u) = f from the committed state (dead load + reservoir);
-        commits u, the interface state; sets v = a = 0 and the current load to f."""
+        commits u, the interface state; sets v = a = 0 and the current load to f.
+        relax=False: no damped dynamics at a limit load (``_relax``): the solve fails there."""
         t0 = time.perf_counter()
         rep = StepReport()
         f = np.asarray(f, dtype=float)
@@ -1043,7 +1044,8 @@ class NewmarkSolver:
                     # load: the Jacobian's determinant changes sign across the peak kink). The
                     # crack runs at constant load: followed by damped dynamics at the load fe
                     # until the static solve from the moving state converges (``_relax``)
-                    nrel = self._relax(fe)
+                    self.relax_runaway = None
+                    nrel = self._relax(fe) if relax else None
                     if nrel is None and self.relax_runaway is not None:
                         slid, tr = self.relax_runaway
                         raise SolverError(
@@ -1055,9 +1057,10 @@ class NewmarkSolver:
                         raise SolverError(
                             f"static solve did not converge in {self.max_iter} iterations, "
                             f"even with the load in 1/1024 increments (relative residual "
-                            f"{last[-1]:.3e}), nor after {self.relax_max} steps of damped "
-                            f"dynamics at the load {float(end):.6g} of the increment (no "
-                            "equilibrium found: can the joints hold the static loads?)")
+                            f"{last[-1]:.3e})"
+                            + (f", nor after {self.relax_max} steps of damped dynamics at the "
+                               f"load {float(end):.6g} of the increment" if relax else "")
+                            + " (no equilibrium found: can the joints hold the static loads?)")
                     rep.relax_steps.append(nrel)
                     pos = end
         self.v = np.zeros(self.ndof)
@@ -1095,7 +1098,7 @@ class NewmarkSolver:
         g0 = np.asarray(self.g, float).reshape(-1, 2)[:, 1].copy()
         try:
             self.v = np.zeros(self.ndof)
-            self.initial_acceleration(f)
+            self._relax_start(f)
             for k in range(1, self.relax_max + 1):
                 self.step(f)
                 if k % self.relax_check == 0:
@@ -1125,6 +1128,19 @@ class NewmarkSolver:
             self._rhs_next = None
             del self.history[saved["nhist"]:]
         return done
+
+    def _relax_start(self, f):
+        """The start-up acceleration of a relaxation: M^-1 of the residual, or, when M vanishes
+        on some DOFs (a massless rock block: M is singular), ``solve.massless`` on them; the
+        damping's stiffness part acts there iff C has a diagonal on them (Rayleigh a1 > 0)."""
+        M = sp.csr_matrix(self.M)
+        massless = np.asarray(abs(M).sum(axis=1)).ravel() == 0.0
+        if not massless.any():
+            self.initial_acceleration(f)
+            return
+        from .massless import initial_acceleration
+        stiff = self.C is not None and bool(np.any(self.C.diagonal()[massless] != 0.0))
+        initial_acceleration(self, f, massless, 1.0 if stiff else 0.0)
 
     def step(self, f_next) -> StepReport:
         """Advance by dt to the load ``f_next``; on non-convergence the sub-step is halved and
