@@ -40,6 +40,7 @@ def test_fast_section_written_from_the_runs(tmp_path):
     assert fl["floor_s"] == pytest.approx(
         fl["outside_s"] + 25 * (fl["solve_ms"] + fl["products_ms"]) / 1e3)
     assert "the floor of target 1" in text
+    assert fl["ngsolve_ms"]["sparsecholesky"] > 0        # NGSolve's own Cholesky compared
     bd = t1["breakdown"]                                # every part timed, inside the step
     assert bd["steps"] == 25 and all(ms > 0 for _, ms in bd["rows"])
     assert all(ms < bd["total_ms"] for _, ms in bd["rows"][1:])
