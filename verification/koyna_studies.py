@@ -458,68 +458,6 @@ def make_plots(outdir, cfg, state):
     return files
 
 
-# ---------------------------------------------------------------------------------------------
-# Interpretation written from the full run of 2026-11-22 (numbers in koyna_studies.md; wall times
-# on a 2-core VM shared with another benchmark, load 2.5-4: +-30 % or worse).  Appended to the
-# summary of the full study; re-check it when the model, the law or the record change.
-FULL_NOTES = """
-Interpretation (full run of 2026-11-22; scale 0.2 = PGA 0.098 g / 0.068 g, window 0-1.5 s, alpha = 2,
-g_max = 4 l_Nc unless stated):
-
-* Intensity sweep. Under the SYNTHETIC record (3 s, alpha = 2) the interface stays bonded up to scale
-  0.1 (only the static heel damage, max D 0.004-0.005); a heel crack appears at scale 0.15 (0.07 m)
-  and is arrested at 1.10 m (scale 0.2) and 1.97 m (scale 0.25), all formed in one excursion at
-  t = 1.15-1.17 s. At t = 2.0-2.4 s a second crack opens from the downstream toe (x = 53-70 m at
-  scale 0.2, 43-70 m at 0.25), so the total debonded length is 18 m / 29 m while the heel crack does
-  not grow. At scale 0.3 (0.147 g) the heel crack is 3.0 m at 1.2 s, the toe crack opens from 2.0 s,
-  the two join at t = 2.39 s (whole 70 m base debonded) and the dam slides (run stopped at
-  t = 2.61 s). Failure threshold of this model under this record: between
-  0.25 and 0.3 of the record (0.12-0.15 g PGA).
-
-* Gauss points per segment (dt = 2 ms, reference n = 8): the peak crest displacement is converged
-  for every n (|error| <= 8e-5); max D converges monotonically (errors 12 %, 4.5 %, 2.1 %, 0.8 % for
-  n = 1, 2, 3, 5); the crack length at the end does NOT converge monotonically (1.200, 1.132, 1.102,
-  1.113, 1.132 m for n = 1, 2, 3, 5, 8): it is a sum of point weights, so it moves in quanta of about
-  h_heel/n and the n = 2 value equals n = 8 by coincidence. n = 8 with h_heel halved gives 1.120 m, so
-  the mesh/quadrature uncertainty of the crack length is about +-0.03 m for n >= 2. Cost per step
-  grows with n (median 18, 24, 33, 100, 167 ms for n = 1, 2, 3, 5, 8; 244 ms for n = 8 with h_heel
-  halved): every point is active, so the Newton system on the interface grows with n (unlike the DCB,
-  where more points removed step cuts and paid for themselves). Default kept: gauss_points = 3 -- the
-  knee of the work-precision curve: D_max error halves from n = 2 for +33 % wall time, the crack tip is
-  within 0.03 m (a third of a heel element) of n = 8, and n = 5 would cost 3x for the next halving.
-  n = 1 is 2x cheaper than n = 3 but off by 0.07 m and 12 % in D_max, and the DCB study shows it
-  snaps back point by point.
-
-* Time step (reference 0.5 ms): the peak crest error falls with order ~2 (1.5-2.9 between successive
-  halvings; 9.4e-3, 1.4e-3, 5.0e-4, 1.1e-4 at 8, 4, 2, 1 ms) -- Newmark average acceleration. The heel
-  crack length is the same to the last digit (1.1018 m) for dt <= 4 ms with alpha = 2 and for dt <= 2 ms
-  with alpha = 1, g_max = 40 l_Nc (4 ms: one point short, 0.06 m); dt = 8 ms is 0.14 m short in both.
-  Default kept: dt = 2 ms (the paper's): the largest step that gets the crack right in both series and
-  the crest within 0.05 %; 4 ms would save ~40 % of the run time with a 3x larger crest error and a
-  crack one point short for alpha = 1.
-
-* Damage and dt (Eq. 7). alpha = 2: max D = 0.0258, 0.0157, 0.0089, 0.0051, 0.0043 at dt = 8, 4, 2, 1,
-  0.5 ms -- a factor 6 over the range; its dynamic part (above the static 0.0035) falls as dt^1.2
-  (0.0223 -> 0.0008, a factor 27). There is no converged value to approach: with alpha = 2 every step
-  adds (dg/g_max)^2, so refining dt drives the dynamic damage to zero (docs/law.md §6.1); the
-  crack is unaffected only because it is driven by the cohesive softening (kappa), not by D. alpha = 1
-  (g_max = 40 l_Nc, partial crack): max D = 0.0379, 0.0409, 0.0401, 0.0407, 0.0408 -- within 7 % over
-  the same range (1.7 % from the 0.5 ms value at dt = 2 ms). At the default g_max = 4 l_Nc alpha = 1 does not
-  give a partial crack at all at this intensity: the whole base debonds within 1.5 s for every dt
-  (D_max = 1, crest up to 45 mm; crest error vs 0.5 ms 27 %, 14 %, 6 %, 3 % -- first order, the
-  post-failure sliding response).
-
-* g_max (dt = 2 ms). alpha = 2: max D = 0.154, 0.035, 0.0089, 0.0014, 8.8e-5 for g_max = 1, 2, 4, 10,
-  40 l_Nc -- D ~ g_max^-2.0 as Eq. 7 says -- while the crack length hardly moves (1.20, 1.16, 1.10,
-  1.10, 1.10 m) and the crest not at all. alpha = 1: g_max = 1 and 2 l_Nc fail the base and the run
-  stops on sliding at t = 0.86 s and 1.36 s; 4 l_Nc (the default) debonds the whole base within 1.5 s
-  (not yet sliding 5 cm); 10 and 40 l_Nc give a partial crack (1.23 m, 1.16 m) with max D 0.17 and
-  0.040. So with one g_max alpha = 1 always damages more than alpha = 2 (D2 <= D1^2, §7), the
-  opposite of the paper's ordering, and the alpha = 1 result depends on g_max qualitatively (failure
-  or not) while the alpha = 2 crack length does not.
-"""
-
-
 # Tolerances of the rule that picks the defaults (stated in the summary):
 TOL_L_FRAC = 0.5     # crack length at the end within half a heel element (h_heel) of the reference
 TOL_U_GAUSS = 0.01   # peak crest |u_x| within 1 % (every n is far below: the crest is global)
@@ -599,8 +537,8 @@ def write_summary_txt(path, cfg, state, fast):
         a, b = state["repeat"]
         lines += ["", f"Repeatability: identical settings give L_end {get(a)['L_end']!r} and "
                   f"{get(b)['L_end']!r}."]
-    if not fast:
-        lines += ["", FULL_NOTES.strip()]
+    if not fast:                    # what the tables say: docs/studies.md §6 (kept current there)
+        lines += ["", "Interpretation: docs/studies.md §6."]
     path.write_text("\n".join(lines) + "\n")
     return gp, dt
 
