@@ -186,7 +186,10 @@ class ContactParams:
             else:
                 cs = np.inf
         else:  # closure at which the crack stiffness C_N m c^(m-1) reaches K_intact (the cap)
-            cs = (kint / (cn * m)) ** (1.0 / (m - 1.0))
+            # beyond the float range (m close to 1, K_intact >> C_N): never reached, inf (the
+            # uncapped value of m = 1); Python's float power would raise OverflowError there
+            with np.errstate(over="ignore"):
+                cs = float(np.power(kint / (cn * m), 1.0 / (m - 1.0)))
         return np.array([
             kint,
             cn,

@@ -554,3 +554,25 @@ def test_evaluate_validation_names_first_bad_point():
         law.evaluate(np.zeros((4, 2)), s)
     with pytest.raises(ValueError, match=r"state = dict.*allowed"):
         law.evaluate(np.zeros((3, 2)), {})
+
+
+def test_rough_contact_with_exponent_near_one_has_no_cap():
+    """A rough contact of exponent m -> 1 with K_intact >> C_N: the closure c* at which the
+    crack stiffness C_N m c^(m-1) reaches K_intact is (K_intact / (C_N m))^(1/(m-1)), here
+    (1.28e13 / 8.03e5)^256, far beyond the float range. It is inf (never capped, the value of
+    m = 1), not an OverflowError (found by tests/test_reference.py's hypothesis search), and
+    the kernel then agrees with the pure-Python reference law (interfacelaw.testing) in
+    compression, where the cap would act."""
+    coh = CohesiveParams(sigma_max=1e5, tau_max=1e5, l_Nc=0.0078125, l_Tc=0.0078125,
+                         lambda_max=0.5)
+    con = ContactParams(kind="rough", penalty=8e5, exponent=1.00390625)
+    arr = con.as_array(coh)
+    assert math.isinf(arr[-1]) and np.all(np.isfinite(arr[:-1]))
+    law = InterfaceLaw(coh, contact=con)
+    from interfacelaw.testing import evaluate_reference
+    g = np.array([[-1e-3, 0.0], [-1e-1, 1e-4], [-10.0, 0.0]])
+    t, T, _ = law.evaluate(g, law.initial_state(3))
+    t_ref, T_ref, _ = evaluate_reference(law, g, law.initial_state(3))
+    assert np.all(np.isfinite(t)) and np.all(t[:, 0] < 0.0)
+    np.testing.assert_allclose(t, t_ref, rtol=1e-12, atol=0.0)
+    np.testing.assert_allclose(T, T_ref, rtol=1e-10, atol=0.0)
