@@ -1133,8 +1133,8 @@ class NewmarkSolver:
         """The start-up acceleration of a relaxation: M^-1 of the residual, or, when M vanishes
         on some DOFs (a massless rock block: M is singular), ``solve.massless`` on them; the
         damping's stiffness part acts there iff C has a diagonal on them (Rayleigh a1 > 0)."""
-        M = sp.csr_matrix(self.M)
-        massless = np.asarray(abs(M).sum(axis=1)).ravel() == 0.0
+        from ..fe.foundation import massless_dofs
+        massless = massless_dofs(self.M)
         if not massless.any():
             self.initial_acceleration(f)
             return
