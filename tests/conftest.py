@@ -11,6 +11,8 @@ import sys
 import pytest
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
+if str(ROOT) not in sys.path:       # verification/ importable by every test module
+    sys.path.insert(0, str(ROOT))
 
 
 def _share_scope_copy_in_numba_inlining():
@@ -97,8 +99,6 @@ def run_fast_study(name, outdir):
     """The fast form of verification study ``name`` through ``make verify``'s own call
     (``verification/run_all.run_study``): a study whose ``main`` drifts from the
     ``main(fast, outdir)`` convention fails its test, not only ``make verify``."""
-    if str(ROOT) not in sys.path:
-        sys.path.insert(0, str(ROOT))
     from verification import run_all
     return run_all.run_study(name, True, outdir)
 
@@ -123,8 +123,6 @@ class _Study:
 def study():
     """``study("energy_balance")`` -> the module ``verification.energy_balance``, its ``main``
     called the way ``make verify`` calls it."""
-    if str(ROOT) not in sys.path:
-        sys.path.insert(0, str(ROOT))
     return _Study
 
 

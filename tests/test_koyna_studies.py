@@ -13,16 +13,12 @@ Assertions and why they are robust:
 * every number in the records is finite.
 """
 import math
-import pathlib
-import sys
 import time
 
 import pytest
 
 pytest.importorskip("ngsolve")
 
-ROOT = pathlib.Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))
 
 from conftest import run_fast_study  # noqa: E402
 from verification import koyna_studies as ks  # noqa: E402  (the package, as conftest's study)

@@ -14,17 +14,12 @@ Each number would be wrong if the code were wrong:
   release events (residual > 10 % of the input work, the block rattles: N swings to 0); the
   default generalized alpha does not (N within 20 % of W after the pulse).
 """
-import pathlib
-import sys
 
 import numpy as np
 import pytest
 
 pytest.importorskip("ngsolve")
 
-ROOT = pathlib.Path(__file__).resolve().parents[1]
-if str(ROOT) not in sys.path:
-    sys.path.insert(0, str(ROOT))
 
 from conftest import run_fast_study  # noqa: E402
 from verification.rigid_block import rigid_block_slip  # noqa: E402

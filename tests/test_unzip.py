@@ -9,16 +9,11 @@ puts it in two steps); a physical process takes the same time (q = 1). Measured 
 (58 -> 49.5 us at 31.25 -> 7.8 us; the duration converges from above: 45 and 44.5 us at 3.9
 and 1.95 us), so the threshold 0.5 separates the two readings with room on both sides.
 """
-import pathlib
-import sys
 
 import pytest
 
 pytest.importorskip("ngsolve")
 
-ROOT = pathlib.Path(__file__).resolve().parents[1]
-if str(ROOT) not in sys.path:
-    sys.path.insert(0, str(ROOT))
 
 from conftest import run_fast_study  # noqa: E402
 

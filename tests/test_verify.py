@@ -4,13 +4,10 @@ so that a study cannot fall out of ``make verify`` unnoticed (reservoir.py and
 safety_column.py once had main(argv) and made ``make verify`` exit 2)."""
 import pathlib
 import re
-import sys
 
 import pytest
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
-if str(ROOT) not in sys.path:
-    sys.path.insert(0, str(ROOT))
 
 from verification import run_all  # noqa: E402
 
