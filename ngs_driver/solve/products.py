@@ -15,7 +15,7 @@ import numpy as np
 import scipy.sparse as sp
 from numba import njit
 
-__all__ = ["FusedPair", "pair_products", "step_products", "step_products5"]
+__all__ = ["FusedPair", "pair_products", "step_products5"]
 
 
 def _canonical(A):
@@ -47,32 +47,11 @@ def pair_products(indptr, indices, Ax, Bx, x, y, Axo, Byo):
 
 
 @njit(cache=True)
-def step_products(indptr, indices, Mx, Cx, Kx, u, v, x, y, Ku, Mv, Mxo, Cyo):
-    """Ku = K u, Mv = M v, Mxo = M x, Cyo = C y on one pattern (``FusedPair(M, C, K)``'s
-    arrays): the energy budget's products of a committed state and the next Newmark step's
-    right-hand-side products, four independent sums per row."""
-    for i in range(Ku.size):
-        a = 0.0
-        b = 0.0
-        c = 0.0
-        d = 0.0
-        for jj in range(indptr[i], indptr[i + 1]):
-            j = indices[jj]
-            a += Kx[jj] * u[j]
-            b += Mx[jj] * v[j]
-            c += Mx[jj] * x[j]
-            d += Cx[jj] * y[j]
-        Ku[i] = a
-        Mv[i] = b
-        Mxo[i] = c
-        Cyo[i] = d
-
-
-@njit(cache=True)
 def step_products5(indptr, indices, Mx, Cx, Kx, u, v, x, y, Ku, Mv, Mxo, Cyo, Cvo):
-    """``step_products`` and C v: the products of a step of HHT / generalized alpha, whose
-    right-hand side also holds the committed state's internal force K u + C v (five sums per
-    row, one pass)."""
+    """Ku = K u, Mv = M v, Mxo = M x, Cyo = C y, Cvo = C v on one pattern
+    (``FusedPair(M, C, K)``'s arrays), five independent sums per row in one pass: the energy
+    budget's products of a committed state and the next step's right-hand-side products (HHT /
+    generalized alpha also take the committed internal force K u + C v; Newmark leaves C v)."""
     for i in range(Ku.size):
         a = 0.0
         b = 0.0
