@@ -59,11 +59,11 @@ class CollapseRule:
             out.append(num / abs(T) if abs(T) > 1e-12 * max(num, 1.0) else np.inf)
         return out
 
-    def check(self, k, t, dt, measures, f_static, joints, scan):
+    def check(self, k, t, dt, measures, static_loads, joints, scan):
         """The ``collapse`` entry if a joint collapsed at step k (time t), else None.
         measures: the step's joint measures ("<joint>_slip", "<joint>_rotation");
-        f_static: the static loads now, or a function giving them (called only when a cracked
-        joint slides)."""
+        static_loads: a function giving the static loads now (called only when a cracked joint
+        slides)."""
         slip = np.array([measures[f"{n}_slip"] for n in self.names])
         rot = np.array([measures[f"{n}_rotation"] for n in self.names])
         prev, self._prev = self._prev, slip
@@ -88,7 +88,7 @@ class CollapseRule:
         cracked = scan.ints[:, 1] == 0             # no bonded point left
         if not (sliding & cracked).any():
             return None
-        fs = self.static_fs(f_static() if callable(f_static) else f_static, joints, scan)
+        fs = self.static_fs(static_loads(), joints, scan)
         for i, n in enumerate(self.names):
             if sliding[i] and cracked[i] and fs[i] < 1.0:
                 return {"joint": n, "time": float(t), "step": int(k),
