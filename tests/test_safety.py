@@ -11,7 +11,7 @@ from ngs_driver.fe.model import build_from_scene  # noqa: E402
 from ngs_driver.post.files import read_csv  # noqa: E402
 from ngs_driver.run.dam import run  # noqa: E402
 from ngs_driver.run.joints import Joints, crack_measures  # noqa: E402
-from ngs_driver.run.post_earthquake import PostEarthquakeCheck  # noqa: E402
+from ngs_driver.run.post_earthquake import PostEarthquakeCheck, resultant_verdict  # noqa: E402
 from ngs_driver.run.safety import SlidingSafety  # noqa: E402
 from ngs_driver.run.statics import solve_pre_earthquake  # noqa: E402
 from ngs_driver.run.uplift import Uplift  # noqa: E402
@@ -187,6 +187,16 @@ def test_post_earthquake_without_equilibrium_reports_the_resultants(rigid_model)
     assert b["shear_force"] == pytest.approx(0.5 * RHO_G * H ** 2, rel=1e-12)
     assert b["sliding_fs"] == pytest.approx(F * W / (0.5 * RHO_G * H ** 2), rel=1e-12)
     assert b["meets_criterion"] is False
+    assert "< 1, the loads exceed the friction: the dam slides" in pe["note"]
+
+
+def test_resultant_verdict_follows_the_fs():
+    """The note of a post-earthquake solve without equilibrium says the dam slides only when
+    the resultants' FS is below 1 (an energy-study run reported FS 1.31 with "the dam
+    slides")."""
+    assert "the dam slides" in resultant_verdict(0.74)
+    v = resultant_verdict(1.309)
+    assert "1.31 >= 1" in v and "slides" not in v.replace("sliding", "")
 
 
 def test_resume_with_crack_dependent_uplift_and_screening(tmp_path):

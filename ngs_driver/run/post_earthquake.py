@@ -10,7 +10,18 @@ from .checkpoint import restore_solver, solver_snapshot
 from .safety import FS_CAP, FS_CRITERION
 from .statics import spring_supported
 
-__all__ = ["PostEarthquakeCheck"]
+__all__ = ["PostEarthquakeCheck", "resultant_verdict"]
+
+
+def resultant_verdict(fs: float) -> str:
+    """What the base's FS from the load resultants says when the static solve found no
+    equilibrium: below 1 the loads exceed the friction and the dam slides; at or above 1 the
+    resultants hold the dam, and the solve's failure is the joint's numerics (an active set
+    it cycles between), not a sliding mechanism."""
+    if fs < 1.0:
+        return f"base FS {fs:.3g} < 1, the loads exceed the friction: the dam slides"
+    return (f"base FS {fs:.3g} >= 1, the resultants hold the dam (the static solve's failure "
+            "is not a sliding mechanism)")
 
 
 class PostEarthquakeCheck:
@@ -69,7 +80,7 @@ class PostEarthquakeCheck:
             m = self._resultant_measures(solver, f_base_static)
             ok, iters = False, None
             note = (f"no static equilibrium from the final state ({e}); FS from the load "
-                    "resultants on the dam: the dam slides")
+                    f"resultants on the dam: {resultant_verdict(m['base']['sliding_fs'])}")
         joints = {}
         for name in self.joints.names:
             d = dict(m[name])
