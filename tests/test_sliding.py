@@ -2,11 +2,16 @@
 form (through make verify's own call), and the exact rigid-block reference itself.
 
 Each number would be wrong if the code were wrong:
-* the stiff block's permanent slip against Newmark's (1965) rigid block within 3 % with no
-  viscous damping and with the default damping (the criterion of docs/sliding.md; measured
-  +0.04 % and +0.09 %): a mass-proportional dashpot (Rayleigh's a0 M) holds the block (-95 %),
-  a rattling integrator gains energy (+10 %);
-* the energy residual <= 1 % of the input work on these sliding runs (measured 2e-5);
+* the stiff block's slip history against Newmark's (1965) rigid block within 3 % of its
+  largest slip, with no viscous damping and with the default damping, on two pulses and the
+  synthetic Koyna record (both components), and the permanent slip within 3 % on the pulses
+  whose net slip is not a small difference of excursions (the criterion of docs/sliding.md
+  §10; measured: history 0.05-1.01 %, net +0.05 % and -0.33 %): a mass-proportional dashpot
+  (Rayleigh's a0 M) holds the block (-97 %), a rattling integrator gains energy (+10 %); on
+  the record, the vertical component's sign flipped in the rigid block moves its history by
+  90 % of its largest slip, the vertical component left out by 47 %;
+* the energy residual <= 1 % of the input work on these sliding runs (measured 7e-6 to
+  2.4e-3);
 * within 3 % at dt = 4 and 2 ms; 1e8 -> 1e13 Pa/m moves the slip towards the rigid block, and
   both contact stiffnesses converge (static and dynamic);
 * the 4 x 20 m stiff block does not rock at 0.8 g b/h and rocks at 1.25 g b/h (Housner 1963);
@@ -65,10 +70,14 @@ def test_rigid_block_exact_against_closed_form():
 
 def test_stiff_block_slips_as_the_rigid_block(res):
     rows = [r for r in res["sliding"] if r["block"] == "stiff"]
-    assert len(rows) == 4
+    assert len(rows) == 6
     for r in rows:
-        assert abs(r["error"]) <= 0.03, r
+        assert r["history_error"] <= 0.03, r
+        assert abs(r["path_error"]) <= 0.03, r
+        if r["path_over_net"] <= 2.0:
+            assert abs(r["error"]) <= 0.03, r
         assert r["residual_over_input"] <= 0.01, r
+    assert sum(r["path_over_net"] > 2.0 for r in rows) == 2     # the record's two rows
 
 
 def test_dt_and_contact_stiffness_converge(res):
@@ -81,6 +90,17 @@ def test_dt_and_contact_stiffness_converge(res):
     k = res["stiffness"]["rows"]
     assert all(r["converged"] for r in k), k
     assert abs(k[-1]["error"]) < abs(k[0]["error"]), k      # 1e8 -> 1e13 Pa/m
+
+
+def test_concrete_block_converges_with_the_default_damping(res):
+    """The concrete block (half-sine, default damping) at dt = 2 and 1 ms: the slip within
+    0.1 % (measured 0.03 %; with no viscous damping it moves by 1.7 %, the full study's
+    series), the energy residual within 1 % of the input work and falling with dt (measured
+    8.7e-3 and 7.1e-3)."""
+    a, b = res["concrete_dt"]["rows"]
+    assert (a["dt"], b["dt"]) == (0.002, 0.001)
+    assert abs(b["fe_slip"] / a["fe_slip"] - 1.0) < 1e-3, (a, b)
+    assert b["residual_over_input"] < a["residual_over_input"] <= 0.01, (a, b)
 
 
 def test_rocking_starts_at_g_b_over_h(res):
