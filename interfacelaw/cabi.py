@@ -57,7 +57,7 @@ def _part_sizes() -> tuple[int, int, int, int]:
     from a law with every part, so the layout follows the kernel if the tuples change."""
     law = InterfaceLaw(CohesiveParams(1.0, 1.0, 1.0, 1.0, 0.5), ContactParams(),
                        FrictionParams(), DamageParams(g_max=1.0))
-    return tuple(len(t) for t in (law._coh, law._con, law._fri, law._dmg))
+    return tuple(len(t) for t in law.kernel_params)
 
 
 _SIZES = _part_sizes()
@@ -81,7 +81,7 @@ def pack_params(law: InterfaceLaw) -> np.ndarray:
     if not isinstance(law, InterfaceLaw):
         raise ValueError(f"pack_params law = {law!r} is not allowed; allowed: an InterfaceLaw")
     p = np.zeros(PARAMS_SIZE)
-    for off, t in zip(OFFSETS, (law._coh, law._con, law._fri, law._dmg)):
+    for off, t in zip(OFFSETS, law.kernel_params):
         if t is not None:
             p[off:off + len(t)] = t
     p[_T_REF] = law.damage.t_ref if law.needs_dt else 0.0

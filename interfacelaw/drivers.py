@@ -38,7 +38,7 @@ __all__ = [
     "History", "gap_path", "mixed_control",
     "mode_I", "mode_II", "mixed_mode", "load_unload_reload", "closure_reopening",
     "constant_amplitude_cycles", "shear_under_pressure",
-    "cycles_to_failure", "tangent_fd_error",
+    "cycles_to_failure", "tangent_fd_error", "direction_length",
     "OK", "NOT_CONVERGED", "SINGULAR", "LIMIT_POINT", "SKIPPED", "NONFINITE", "STATUS_NAMES",
 ]
 
@@ -502,7 +502,7 @@ def mixed_control(law: InterfaceLaw, times, targets, control, substeps=1,
 
 # ------------------------------------------------------------------------------------------
 # ready paths
-def _dir_length(law, psi, lam):
+def direction_length(law, psi, lam):
     """Gap magnitude along the physical angle psi (tan psi = gT/gN) at which lambda = lam."""
     c = law.cohesive
     return lam / math.hypot(math.cos(psi) / c.l_Nc, math.sin(psi) / c.l_Tc)
@@ -557,7 +557,7 @@ def mixed_mode(law, psi: float, n: int = 100, lam_end: float = 1.5, dim: int = 2
     """Proportional path at physical angle psi (tan psi = g_T/g_N) up to lambda = lam_end,
     in n equal increments over ``duration`` seconds (a constant rate);
     dissipated -> CohesiveParams.G_mixed(psi)."""
-    L = _dir_length(law, psi, lam_end)
+    L = direction_length(law, psi, lam_end)
     end = _vec(dim, L * math.cos(psi), L * math.sin(psi))
     return gap_path(law, [0.0, _positive("duration", duration)],
                     np.array([np.zeros(dim), end]), n)
@@ -571,8 +571,8 @@ def load_unload_reload(law, lam_unload: float = 0.5, lam_end: float = 1.5, psi: 
     The unloading and reloading follow the secant to the origin with the stiffness reached at
     lambda_h = lam_unload (no healing); reloading rejoins the envelope at lambda_h."""
     c, s = math.cos(psi), math.sin(psi)
-    Lu = _dir_length(law, psi, lam_unload)
-    Le = _dir_length(law, psi, lam_end)
+    Lu = direction_length(law, psi, lam_unload)
+    Le = direction_length(law, psi, lam_end)
     pts = [(0.0, 0.0), (Lu * c, Lu * s), (0.0, 0.0), (Le * c, Le * s)]
     return _path(law, pts, n, dim, duration=duration)
 

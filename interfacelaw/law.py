@@ -120,6 +120,12 @@ class InterfaceLaw:
         self._code = _kernels.code(self._con, self._dmg)
         self._parts = (contact is None, friction is None, damage is None)
 
+    @property
+    def kernel_params(self) -> tuple:
+        """The parameter tuples the kernel takes, (cohesive, contact, friction, damage): the
+        derived constants of docs/law.md, None for an absent part (the C ABI packs them)."""
+        return self._coh, self._con, self._fri, self._dmg
+
     def __repr__(self):
         return (f"InterfaceLaw({self.cohesive}, contact={self.contact}, "
                 f"friction={self.friction}, damage={self.damage})")

@@ -165,7 +165,7 @@ def _run_other(sc, outdir, progress) -> int:
 
 
 def _run_one(sc, outdir, resume, progress) -> int:
-    from .run.dam import run
+    from .apps.dam import run
     try:
         run(sc, outdir, resume=resume, progress=progress)
     except KeyboardInterrupt:
@@ -245,7 +245,7 @@ def cmd_modal(a) -> int:
         out = _outdir(a.out, sc)
     except ValueError as e:
         return _err(str(e))
-    from .run.frequencies import run_modal
+    from .apps.modal import run_modal
     md, res, damp = run_modal(sc, out, a.n)
     print(f"scene {sc.name}: nfree {md.nfree}, interface points {md.interface.npts}, "
           f"plane {sc.materials.plane}")

@@ -73,7 +73,7 @@ def test_massless_initial_acceleration(massless):
 def test_massless_run(tmp_path, massless):
     """A short run on the massless foundation completes, with the frequencies of the massless
     model and the post-earthquake FS of the record's 5 steps."""
-    from ngs_driver.run.dam import run
+    from ngs_driver.apps.dam import run
 
     sc, ml = massless
     sc = load_scene("koyna_smoke", ["geometry.foundation=massless", "time.duration=0.01"])
@@ -151,7 +151,7 @@ def test_absorbing_run(tmp_path):
     (no rigid-body modes), the energy budget closes with the dashpots booked as damping
     (measured 8e-12 of the input work: a linear base), the post-earthquake solve converges on
     the springs."""
-    from ngs_driver.run.dam import run
+    from ngs_driver.apps.dam import run
 
     sc = load_scene("koyna_smoke", ["geometry.rock_sides=absorbing", "time.duration=0.02",
                                     "ground_motion.scale=0.3", "interface.damage=false",

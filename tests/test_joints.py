@@ -12,7 +12,7 @@ from interfacelaw import CohesiveParams, ContactParams, InterfaceLaw  # noqa: E4
 from ngs_driver.fe import geometry as geom  # noqa: E402
 from ngs_driver.fe.model import build_model  # noqa: E402
 from ngs_driver.fe.ngs_helpers import vec  # noqa: E402
-from ngs_driver.run.dam import run  # noqa: E402
+from ngs_driver.apps.dam import run  # noqa: E402
 from ngs_driver.scene import from_dict  # noqa: E402
 from ngs_driver.section import Section  # noqa: E402
 

@@ -1,4 +1,4 @@
-"""The Koyna run (ngs_driver.run.dam) on the tiny smoke scene: outputs, static state, resume."""
+"""The Koyna run (ngs_driver.apps.dam) on the tiny smoke scene: outputs, static state, resume."""
 import json
 import math
 import pathlib
@@ -8,7 +8,7 @@ import pytest
 
 pytest.importorskip("ngsolve")
 
-from ngs_driver.run.dam import RunInterrupted, run  # noqa: E402
+from ngs_driver.apps.dam import RunInterrupted, run  # noqa: E402
 from ngs_driver.run.joints import crack_measures  # noqa: E402
 from ngs_driver.setup import build_law, describe  # noqa: E402
 from ngs_driver.fe.model import build_from_scene  # noqa: E402
@@ -204,7 +204,7 @@ def test_describe_no_build():
 
 def test_vtk_time_series_written(tmp_path):
     """output.vtk_every = k writes a VTK file every k steps (ParaView time series)."""
-    from ngs_driver.run.dam import run
+    from ngs_driver.apps.dam import run
     from ngs_driver.scene import load_scene
     sc = load_scene("koyna_smoke", ["output.vtk_every=10", "time.duration=0.04",
                                     "output.checkpoint_every=0"])

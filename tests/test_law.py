@@ -451,13 +451,14 @@ def test_fast_loop_code_carries_the_law_damage_values():
             for form in ("paper", "objective", "rate"):
                 for beta in (0.0, 1.0):
                     law = full_law(coh, "rough", alpha=alpha, F_th=F_th, form=form, beta=beta)
-                    c = _kernels.code(law._con, law._dmg)
+                    _, con, _, dmg = law.kernel_params
+                    c = _kernels.code(con, dmg)
                     if alpha == 1.5 or beta != 0.0:
                         assert c == -1 and not law._fast      # pow calls: the general loop
                         continue
                     assert law._fast and 0 <= c < 12
                     fast, spec = _kernels._decode.py_func(c)
-                    a, b_, g, fth, code = law._dmg
+                    a, b_, g, fth, code = dmg
                     assert fast and spec == (a, code, float(fth == 0.0 and b_ == 0.0))
                     seen.add(c)
     assert len(seen) == 10                                    # rate with alpha 1 = paper

@@ -1,6 +1,6 @@
 """Any section, lift joints, --dry-run catches what can be caught without meshing, and the
 package is a pipeline: no import cycle, every stage imports only the stages before it on the
-data path (scene -> setup -> fe -> solve -> run -> post; studies on top), no private name
+data path (scene -> setup -> fe -> solve -> run -> post; apps and studies on top), no private name
 imported or private attribute used across modules."""
 import ast
 import json
@@ -96,15 +96,18 @@ def test_no_import_cycle():
 
 
 # stage -> the stages it must never import (the data path runs one way; post writes what the
-# run computed and never drives the solver)
+# run computed and never drives the solver; the run hands its results to the output stage
+# through the ``outputs`` object it is given, run/outputs.py, and never imports it; apps (the
+# commands' whole runs) and studies sit on top)
 NEVER_IMPORTS = {
-    "scene": ("fe", "solve", "run", "post", "studies", "setup"),
-    "section": ("fe", "solve", "run", "post", "studies", "setup"),
-    "setup": ("studies", "run", "fe", "solve", "post"),
-    "fe": ("solve", "run", "post", "studies"),
-    "solve": ("run", "post", "studies"),
-    "post": ("solve",),
-    "run": ("studies",),
+    "scene": ("fe", "solve", "run", "post", "studies", "setup", "apps"),
+    "section": ("fe", "solve", "run", "post", "studies", "setup", "apps"),
+    "setup": ("studies", "run", "fe", "solve", "post", "apps"),
+    "fe": ("solve", "run", "post", "studies", "apps"),
+    "solve": ("run", "post", "studies", "apps"),
+    "run": ("post", "studies", "apps"),
+    "post": ("solve", "studies", "apps"),
+    "apps": ("studies",),
 }
 
 
@@ -222,22 +225,27 @@ def test_the_private_attribute_check_sees_a_violation():
 
 
 def test_the_stage_check_sees_a_violation(tmp_path):
-    """A module of fe/ importing solve/ (relative import, as a function-level import too) and
-    one of post/ importing the solver are reported; fe importing fe and post importing run
-    are not."""
+    """A module of fe/ importing solve/ (relative import, as a function-level import too), one
+    of post/ importing the solver and one of run/ importing post/ (in a function) are
+    reported; fe importing fe and post importing run are not."""
     fe = tmp_path / "fe_m.py"
     fe.write_text("from .coupling import JointOperator\n"
                   "def f():\n    from ..solve import sparse\n")
     post = tmp_path / "post_m.py"
     post.write_text("import ngs_driver.solve.newmark\nfrom ..run import history\n")
+    run = tmp_path / "run_m.py"
+    run.write_text("def finish():\n    from ..post.vtk import VTKWriter\n")
     other = tmp_path / "x.py"
     other.write_text("")
     mods = {"ngs_driver.fe.m": fe, "ngs_driver.post.m": post, "ngs_driver.solve.sparse": other,
-            "ngs_driver.fe.coupling": other, "ngs_driver.run.history": other}
+            "ngs_driver.fe.coupling": other, "ngs_driver.run.history": other,
+            "ngs_driver.run.m": run, "ngs_driver.post.vtk": other}
     bad = set(_stage_violations(mods))
     assert {("ngs_driver.fe.m", "ngs_driver.solve.sparse"),
-            ("ngs_driver.post.m", "ngs_driver.solve.newmark")} <= bad
-    assert all(d.startswith("ngs_driver.solve") for _, d in bad), bad
+            ("ngs_driver.post.m", "ngs_driver.solve.newmark"),
+            ("ngs_driver.run.m", "ngs_driver.post.vtk")} <= bad, bad
+    assert all(d.startswith(("ngs_driver.solve", "ngs_driver.post")) for _, d in bad), bad
+    assert not any(m == "ngs_driver.post.m" and d.startswith("ngs_driver.run") for m, d in bad)
 
 
 def test_no_test_fixtures_in_the_packages():

@@ -243,7 +243,7 @@ def test_modal_names_the_fundamental_resonance_pine_flat(tmp_path):
     compressible below incompressible (alpha = 1, the water's own resonance above)."""
     import json
 
-    from ngs_driver.run.frequencies import run_modal
+    from ngs_driver.apps.modal import run_modal
 
     sc = load_scene("pine_flat", ["geometry.foundation=rigid", "mesh.h_heel=1.0",
                                   "mesh.heel_zone=0.0", "mesh.h_interface=6.0",
@@ -291,7 +291,7 @@ def test_koyna_1967_runs_with_its_neck_under_water(tmp_path):
     import json
 
     from ngs_driver.fe.model import build_from_scene
-    from ngs_driver.run.dam import run
+    from ngs_driver.apps.dam import run
 
     coarse = ["mesh.h_heel=1.0", "mesh.heel_zone=0.0", "mesh.h_interface=4.0",
               "mesh.h_coarse=6.0", "mesh.growth=1.5", "reservoir.h_max=12.0",

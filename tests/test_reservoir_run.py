@@ -68,7 +68,7 @@ def test_radiation_far_end_takes_energy_out_after_the_travel_time():
 def test_acoustic_run_writes_pressure_outputs(tmp_path):
     """The smoke scene with the compressible acoustic reservoir runs and writes the pressure
     CSV (5 elevations + force), its figure and the summary entry."""
-    from ngs_driver.run.dam import run
+    from ngs_driver.apps.dam import run
     sc = load_scene("koyna_smoke", ["reservoir.model=acoustic", "time.duration=0.02"])
     s = run(sc, tmp_path, progress=False, plots=True)
     assert (tmp_path / "reservoir_pressure.png").exists()
@@ -91,7 +91,7 @@ def test_compressible_run_tends_to_the_incompressible_run(tmp_path, sides):
     too large)."""
     import dataclasses
 
-    from ngs_driver.run.dam import run
+    from ngs_driver.apps.dam import run
 
     base = ["reservoir.model=acoustic", "ground_motion.start=0.0", "time.duration=0.2",
             "reservoir.far_end=rigid", f"geometry.rock_sides={sides}"]
@@ -111,7 +111,7 @@ def test_resume_with_compressible_water_is_exact(tmp_path):
     """Killed after 12 steps (checkpoint at 10) and resumed: the water state and the pressure
     history come back from reservoir_state_*.npz, and the pressure CSV and the final
     displacement equal those of an uninterrupted run (bitwise: same operations)."""
-    from ngs_driver.run.dam import RunInterrupted, run
+    from ngs_driver.apps.dam import RunInterrupted, run
 
     sets = ["reservoir.model=acoustic", "time.duration=0.04", "output.checkpoint_every=10"]
     sc = load_scene("koyna_smoke", sets)
@@ -133,7 +133,7 @@ def test_reservoir_state_of_the_previous_checkpoint_kept(tmp_path):
     """The water state of step k is saved before checkpoint.json commits step k (written in
     the background): the previous checkpoint's state stays until the next save, so a run
     stopped in between can resume from the previous step."""
-    from ngs_driver.run.dam import RunInterrupted, run
+    from ngs_driver.apps.dam import RunInterrupted, run
 
     sets = ["reservoir.model=acoustic", "time.duration=0.08", "output.checkpoint_every=10"]
     sc = load_scene("koyna_smoke", sets)

@@ -9,7 +9,7 @@ pytest.importorskip("ngsolve")
 
 from ngs_driver.fe.model import build_from_scene  # noqa: E402
 from ngs_driver.post.files import read_csv  # noqa: E402
-from ngs_driver.run.dam import run  # noqa: E402
+from ngs_driver.apps.dam import run  # noqa: E402
 from ngs_driver.run.joints import Joints, crack_measures  # noqa: E402
 from ngs_driver.run.post_earthquake import PostEarthquakeCheck, resultant_verdict  # noqa: E402
 from ngs_driver.run.safety import SlidingSafety  # noqa: E402
@@ -204,7 +204,7 @@ def test_resume_with_crack_dependent_uplift_and_screening(tmp_path):
     after 27 steps and resumed from its checkpoint at step 20 ends where the uninterrupted
     one does (the static pressure, the pressure in force and the screening accumulators are
     checkpointed); 1e-12 as in test_koyna_run's resume test."""
-    from ngs_driver.run.dam import RunInterrupted
+    from ngs_driver.apps.dam import RunInterrupted
 
     sc = load_scene("koyna_smoke", ["uplift.model=linear", "uplift.in_crack=zero",
                                     "screening.enabled=true"])

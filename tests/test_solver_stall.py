@@ -11,7 +11,7 @@ import pytest
 
 pytest.importorskip("ngsolve")
 
-from ngs_driver.run.dam import run  # noqa: E402
+from ngs_driver.apps.dam import run  # noqa: E402
 from ngs_driver.scene import load_scene  # noqa: E402
 from ngs_driver.solve.newmark import NewmarkSolver  # noqa: E402
 

@@ -7,6 +7,7 @@ Jacobian changes sign there), so Newton with load continuation stagnated at 1/10
 """
 import numpy as np
 
+from ngs_driver.post.outputs import RunOutputs
 from ngs_driver.run.analysis import prepare
 from ngs_driver.scene import load_scene
 
@@ -23,7 +24,7 @@ def test_static_passes_heel_crack_limit_loads(tmp_path):
     scene = load_scene("pine_flat", ["time.duration=0.02", "uplift.model=none",
                                      "reservoir.model=none", "mesh.h_coarse=6",
                                      "mesh.growth=1.3"])
-    a = prepare(scene, str(tmp_path / "out"), progress=False, plots=False)
+    a = prepare(scene, str(tmp_path / "out"), progress=False, outputs=RunOutputs(plots=False))
     a.static()
     rep = a.solver.history[-1]
     assert rep.relax_steps, "no limit load met: the test no longer exercises _relax"
@@ -46,7 +47,7 @@ def test_static_without_equilibrium_says_the_dam_slides(tmp_path):
     from ngs_driver.solve.newmark import SolverError
     scene = load_scene("sliding_block", ["interface.friction=0.02", "reservoir.level=9",
                                          "time.duration=0.02"])
-    a = prepare(scene, str(tmp_path / "out"), progress=False, plots=False)
+    a = prepare(scene, str(tmp_path / "out"), progress=False, outputs=RunOutputs(plots=False))
     a.solver.relax_slip_max = 1e-3
     with pytest.raises(SolverError, match="no static equilibrium.*slides before the earthquake"):
         a.static()
@@ -56,7 +57,7 @@ def _pine_flat_limit(tmp_path, *extra):
     scene = load_scene("pine_flat", ["time.duration=0.02", "uplift.model=none",
                                      "reservoir.model=none", "mesh.h_coarse=6",
                                      "mesh.growth=1.3", *extra])
-    return prepare(scene, str(tmp_path / "out"), progress=False, plots=False)
+    return prepare(scene, str(tmp_path / "out"), progress=False, outputs=RunOutputs(plots=False))
 
 
 def test_relaxation_on_a_massless_rock_block(tmp_path):

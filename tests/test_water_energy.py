@@ -14,7 +14,7 @@ import pytest
 
 pytest.importorskip("ngsolve")
 
-from ngs_driver.run.dam import run  # noqa: E402
+from ngs_driver.apps.dam import run  # noqa: E402
 from ngs_driver.scene import load_scene  # noqa: E402
 
 COARSE = ["mesh.h_heel=1.0", "mesh.heel_zone=0.0", "mesh.h_interface=5.0", "mesh.h_coarse=8.0",

@@ -132,11 +132,13 @@ def analysis(sc, model=None):
     the folder) with the static state solved. The benchmarks step ``a.solver`` directly with
     ``load(a)``: the solver alone, the joints' laws frozen at their start (b_ref)."""
     global _SCRATCH
+    from ngs_driver.post.outputs import RunOutputs
     from ngs_driver.run import prepare
     if _SCRATCH is None:
         _SCRATCH = pathlib.Path(tempfile.mkdtemp(prefix="bench_koyna_"))
     out = pathlib.Path(tempfile.mkdtemp(dir=_SCRATCH))
-    a = prepare(sc, out, model=model, plots=False, progress=False, log=lambda *x, **k: None)
+    a = prepare(sc, out, model=model, outputs=RunOutputs(plots=False), progress=False,
+                log=lambda *x, **k: None)
     a.static()
     return a
 
@@ -171,7 +173,7 @@ def variant(s, method="condensed"):
 # ---------------------------------------------------------------------------------------------
 def short_run(model, sc, outdir) -> dict:
     from ngs_driver.post.files import read_csv
-    from ngs_driver.run import run
+    from ngs_driver.apps.dam import run
     s = run(sc, outdir, model=model, plots=False, progress=False)
     ts = read_csv(pathlib.Path(outdir) / "timeseries.csv")
     w = np.asarray(ts["wall"])

@@ -33,6 +33,8 @@ import sys
 import tempfile
 import time
 
+import numpy as np
+
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 for p in (ROOT, ROOT / "tests" / "bench"):
     if str(p) not in sys.path:
@@ -64,7 +66,8 @@ def cli(cmd: str, scene: str, sets=(), extra=()) -> dict:
     t0 = time.perf_counter()
     p = subprocess.run(argv, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True,
                        cwd=ROOT)
-    d = {"command": shown, "loadavg": [l0, loadavg()], "wall_s": time.perf_counter() - t0}
+    d = {"command": shown, "loadavg": [l0, loadavg()], "wall_s": time.perf_counter() - t0,
+         "outdir": str(od)}
     if p.returncode != 0:
         raise RuntimeError(f"{shown}: exit code {p.returncode}: {p.stderr[-1500:]}")
     d.update(parse_time_v(p.stderr))
@@ -183,12 +186,42 @@ BREAKDOWN = (
 )
 
 
+T1_MESHES = (2.0, 4.0, 8.0)       # mesh.h_coarse [m]: the scene's own, and two coarser
+
+
+def t1_mesh(duration: float | None = None, meshes=T1_MESHES) -> dict:
+    """Target 1's nonlinear command on coarser meshes (``mesh.h_coarse``; the interface and
+    heel meshes unchanged): wall, free DOFs, time loop per step, and what the coarser mesh
+    changes in the answers (heel and total crack at the end, largest crest displacement,
+    first frequency). A line fitted to the time loop per step against the DOFs gives the
+    step's part that no mesh removes (its intercept)."""
+    extra = () if duration is None else (f"time.duration={duration}",)
+    rows = []
+    for hc in meshes:
+        d = cli("run", "koyna", T1_NL + (f"mesh.h_coarse={hc!r}",) + extra)
+        s = json.loads(sorted(pathlib.Path(d["outdir"]).rglob("summary.json"))[0].read_text())
+        r = s["results"]
+        rows.append({"h_coarse": hc, "command": d["command"], "wall_s": d["wall_s"],
+                     "dofs": s["dofs"]["nfree"], "dynamic_s": s["timings"]["dynamic"],
+                     "step_ms": 1e3 * s["timings"]["dynamic"] / d["steps_done"],
+                     "outside_s": d["wall_s"] - s["timings"]["dynamic"],
+                     "crack_heel_m": r["crack_length_heel_final"],
+                     "crack_total_m": r["crack_length_total_final"],
+                     "crest_ux_max_mm": 1e3 * r["crest_ux_max"],
+                     "f1_hz": s["frequencies_hz"][0], "loadavg": d["loadavg"]})
+    x = np.array([r["dofs"] for r in rows], float)
+    y = np.array([r["step_ms"] for r in rows])
+    slope, icpt = np.polyfit(x, y, 1) if len(rows) > 1 else (np.nan, np.nan)
+    return {"rows": rows, "ms_per_kdof": 1e3 * slope, "fixed_ms": icpt}
+
+
 def t1_breakdown(duration: float | None = None) -> dict:
     """Per-step wall of target 1's nonlinear run by part, in this process: each method of
     ``BREAKDOWN`` wrapped with a timer (perf_counter, ~0.2 us a call), the run driven through
     ``prepare`` / ``static`` / ``step``; ms per step of the time loop."""
     import importlib
 
+    from ngs_driver.post.outputs import RunOutputs
     from ngs_driver.run import prepare
     from ngs_driver.scene import load_scene
 
@@ -210,7 +243,7 @@ def t1_breakdown(duration: float | None = None) -> dict:
     try:
         sets = list(T1_NL) + ([] if duration is None else [f"time.duration={duration}"])
         a = prepare(load_scene("koyna", sets), tempfile.mkdtemp(prefix="speed2_parts_"),
-                    progress=False, plots=False)
+                    progress=False, outputs=RunOutputs(plots=False))
         a.static()
         acc.clear()
         while a.step():
@@ -391,6 +424,21 @@ def section(r: dict, fast: bool) -> list[str]:
                         for k, v in fl["ngsolve_ms"].items())
             + f" | `bench_speed2.t1_floor` (medians) | — | "
             f"{'below' if fl['floor_s'] <= 10 else 'above'} 10 s |")
+    tm = t1.get("mesh")
+    if tm:
+        rows = tm["rows"]
+        lines.append(
+            f"| 1''. target 1's command on coarser meshes (`--set mesh.h_coarse=H`; heel and "
+            f"interface meshes unchanged) | "
+            + "; ".join(f"H = {x['h_coarse']:g} m: {x['wall_s']:.1f} s ({x['dofs']} DOFs, "
+                        f"{x['step_ms']:.2f} ms/step, {x['outside_s']:.1f} s outside the loop; "
+                        f"heel crack {x['crack_heel_m']:.2f} m, total {x['crack_total_m']:.2f} m, "
+                        f"crest {x['crest_ux_max_mm']:.2f} mm, f1 {x['f1_hz']:.3f} Hz)"
+                        for x in rows)
+            + f"; per step {tm['ms_per_kdof']:.3f} ms per 1000 DOFs + {tm['fixed_ms']:.2f} ms "
+            f"that no mesh removes | `bench_speed2.t1_mesh`: `{rows[-1]['command']}` | "
+            f"{_load(rows[0])} | {ok(min(x['wall_s'] for x in rows) <= 10)} (10 s on any of "
+            f"them) |")
     if t2:
         ex = " + ".join(f"{lv:g} g: {v['wall_per_record_s']:.2f} s/s × {t2['suite_record_s']:.0f} s"
                         for lv, v in sorted(t2["per_level"].items(), key=lambda kv: float(kv[0])))
@@ -461,10 +509,10 @@ def main(fast: bool = False, md=None, repeats: int = 2, only=None) -> dict:
     out.mkdir(parents=True, exist_ok=True)
     only = set(only or (1, 2, 3, 4))
     dur = 0.05 if fast else None
-    from verification.write_benchmarks import _cpu
+    from verification.write_benchmarks import cpu_name
     old = out / "bench_speed2.json"
     r = json.loads(old.read_text()) if old.exists() and only != {1, 2, 3, 4} else {}
-    r.update({"machine": f"{_cpu()}, {os.cpu_count()} cores, Python {sys.version.split()[0]}",
+    r.update({"machine": f"{cpu_name()}, {os.cpu_count()} cores, Python {sys.version.split()[0]}",
               "date": time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime())})
     def save():                       # after each target: a later failure loses nothing
         atomic_write_text(old, json.dumps(r, indent=1, default=float))
@@ -473,6 +521,8 @@ def main(fast: bool = False, md=None, repeats: int = 2, only=None) -> dict:
         r["t1"] = target1(1 if fast else repeats, dur)
         r["t1"]["floor"] = t1_floor(r["t1"]["runs"]["nonlinear"][0], 20 if fast else 300)
         r["t1"]["breakdown"] = t1_breakdown(dur)
+        save()
+        r["t1"]["mesh"] = t1_mesh(dur, (2.0, 8.0) if fast else T1_MESHES)
         save()
     if 3 in only:
         r["t3"] = target3(10 ** 4 if fast else 10 ** 6, 2 if fast else 15)

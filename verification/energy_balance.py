@@ -22,7 +22,7 @@ if str(ROOT) not in sys.path:
     sys.path.insert(0, str(ROOT))
 
 from ngs_driver.post.files import atomic_write_bytes, atomic_write_text  # noqa: E402
-from ngs_driver.run.dam import run  # noqa: E402
+from ngs_driver.apps.dam import run  # noqa: E402
 from ngs_driver.scene import load_scene  # noqa: E402
 
 LINEAR = ["ground_motion.scale=0.001", "interface.damage=false"]

@@ -279,7 +279,7 @@ def sec_extreme(outdir, fast):
         """Trapezoid work along the ray psi through the signed lambda values ``lams``: exact
         when every kink (lambda_max, 1, lambda_h, g_N = 0) is a breakpoint, because the
         traction is piecewise linear along a ray (s(λ)λ is linear in λ)."""
-        L = dr._dir_length(law, psi, 1.0)
+        L = dr.direction_length(law, psi, 1.0)
         d = np.array([math.cos(psi), math.sin(psi)]) * L
         g = np.array([lam * d for lam in lams])
         h = dr.gap_path(law, np.arange(len(lams), dtype=float), g, 2, state)

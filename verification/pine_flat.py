@@ -63,7 +63,7 @@ def _scene(sets, fast):
 def frequencies(fast: bool) -> list[dict]:
     """f1, f2 with an empty reservoir: foundation x plane."""
     from ngs_driver.fe.model import build_from_scene
-    from ngs_driver.run.frequencies import run_modal  # noqa: F401  (the same path as `modal`)
+    from ngs_driver.apps.modal import run_modal  # noqa: F401  (the same path as `modal`)
     from ngs_driver.fe.modal import k0_from_scene, modal_analysis
 
     rows = []
@@ -129,7 +129,7 @@ def _skfem_f1(md, mat) -> float | None:
 def resonances(fast: bool, out: Path) -> list[dict]:
     """The fundamental resonance of the crest response (dam-seismic modal), full reservoir,
     rigid base, both planes; alpha = 1 and 0.5 (alpha = 1 only in the fast version)."""
-    from ngs_driver.run.frequencies import run_modal
+    from ngs_driver.apps.modal import run_modal
 
     rows = []
     for plane in ("strain", "stress"):

@@ -76,7 +76,7 @@ def rigid_wall(lines, fast):
 
 def koyna_f1(lines, out):
     from ngs_driver.fe.modal import k0_from_scene, modal_analysis
-    from ngs_driver.run.frequencies import run_modal
+    from ngs_driver.apps.modal import run_modal
     from ngs_driver.fe.model import build_from_scene
     from ngs_driver.scene import load_scene
     sc = load_scene("koyna_classic")
@@ -112,6 +112,7 @@ def cost(lines, fast, n_steps=None):
     import tempfile
 
     from ngs_driver.fe.model import build_from_scene
+    from ngs_driver.post.outputs import RunOutputs
     from ngs_driver.run import prepare
     from ngs_driver.run.analysis import seismic_load
     from ngs_driver.scene import load_scene
@@ -125,7 +126,7 @@ def cost(lines, fast, n_steps=None):
         t = time.perf_counter()
         md = build_from_scene(sc)
         tb = time.perf_counter() - t
-        a = prepare(sc, scratch / m, model=md, progress=False, plots=False,
+        a = prepare(sc, scratch / m, model=md, progress=False, outputs=RunOutputs(plots=False),
                     log=lambda *x, **k: None)
         a.static()
         npd = md.reservoir.info.get("n_pressure_dofs", 0) if md.reservoir else 0

@@ -87,7 +87,7 @@ def block_sets(L, H, water, f, record, duration, extra=(), stiff=False, contact=
 def run_case(sets, outdir):
     """The run of the sliding_block scene with ``sets``; (timeseries, summary, scene)."""
     from ngs_driver.post.files import read_csv
-    from ngs_driver.run import run
+    from ngs_driver.apps.dam import run
     from ngs_driver.scene import load_scene
     sc = load_scene("sliding_block", list(sets) + ["output.checkpoint_every=0"])
     t0 = time.perf_counter()

@@ -16,7 +16,7 @@ debonds over its 70 m "in one or two steps" once the heel's damage reaches 1:
 
 Every run goes through ``ngs_driver.run.prepare`` (the ``dam-seismic run`` path) with
 ``--set`` overrides; the only addition is an observer of the solver's accepted sub-steps
-(``NewmarkSolver._commit`` wrapped: time, sub-step, debonded length, max D and each point's
+(``NewmarkSolver.commit_observers``: time, sub-step, debonded length, max D and each point's
 debonding time), because the event happens inside the cut sub-steps of one or two steps. Per
 run: the times at which the debonded length of the base passes 10 % and reaches 100 %, that
 duration in seconds, in nominal steps and in accepted sub-steps, the Newton iterations (accepted
@@ -125,21 +125,18 @@ class SubstepLog:
         self.length = float(self.w.sum())
         self.rows = []
         self.t_debond = np.full(self.w.size, np.nan)
-        self._orig = s._commit
-        s._commit = self._commit
+        s.commit_observers.append(self.committed)
 
-    def _commit(self, h, f_next, res):
-        self._orig(h, f_next, res)
+    def committed(self, s, h, iterations):
         if h is None:                                   # the static solve
             return
-        s = self.solver
         st = s.state
         deb = np.asarray(st.debonded[self.sl], bool)
         new = deb & np.isnan(self.t_debond)
         if new.any():
             self.t_debond[new] = s.time
         self.rows.append((s.time, h, float(self.w[deb].sum()),
-                          float(st.damage[self.sl].max()), int(res[7])))
+                          float(st.damage[self.sl].max()), int(iterations)))
 
     def arrays(self):
         a = np.array(self.rows, float).reshape(-1, 5)
@@ -149,11 +146,12 @@ class SubstepLog:
 def run_one(scene_name, sets, dt, outdir) -> dict:
     """One run of ``scene_name`` with ``sets`` and time.dt = dt through ``prepare`` (the run
     command's path), observed sub-step by sub-step."""
+    from ngs_driver.post.outputs import RunOutputs
     from ngs_driver.run import prepare
     from ngs_driver.scene import load_scene
     sc = load_scene(scene_name, list(sets) + [f"time.dt={dt!r}"])
     t0 = time.perf_counter()
-    a = prepare(sc, outdir, progress=False, plots=False)
+    a = prepare(sc, outdir, progress=False, outputs=RunOutputs(plots=False))
     a.static()
     log = SubstepLog(a)
     try:

@@ -14,7 +14,7 @@ import time
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 
 
-def _cpu() -> str:
+def cpu_name() -> str:
     try:
         for line in pathlib.Path("/proc/cpuinfo").read_text().splitlines():
             if line.startswith("model name"):
@@ -37,7 +37,7 @@ def main(argv=None) -> int:
     for b in data["benchmarks"]:
         rows[b["name"]] = (b["stats"]["median"], b.get("extra_info", {}), b["stats"]["rounds"])
     out = ["# Benchmarks", "",
-           f"Machine: {_cpu()}, {data.get('machine_info', {}).get('cpu', {}).get('count', '?')}"
+           f"Machine: {cpu_name()}, {data.get('machine_info', {}).get('cpu', {}).get('count', '?')}"
            f" cores, Python {platform.python_version()}; date {time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}.",
            "Command: `make bench` (pytest-benchmark medians; then this script).", "",
            "| benchmark | median | rounds | extra |", "|---|---|---|---|"]

@@ -66,6 +66,4 @@ def write_reservoir_outputs(out, rr, plots=True) -> list[str]:
         fig.tight_layout()
         fig.set_layout_engine(None)      # laid out: savefig need not draw twice
         files.append(save_png(fig, out / "reservoir_pressure.png", dpi=120))   # atomic
-    if rr.vtk is not None:
-        files += [f"vtk/{f}" for f in rr.vtk.files]
     return files

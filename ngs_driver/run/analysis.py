@@ -23,10 +23,12 @@ free-field forces, ``fe.foundation.AbsorbingRock``). Every step records the cres
 solver's work, each joint's measures, its sliding safety and the energy budget
 (``run.energy``) in the history (``run.history``).
 
-Outputs (``post``): summary.json (written last, atomically), timeseries.csv,
-damage_profiles[_<joint>].csv, final_state.npz, PNGs, optional VTK; checkpoint.json/.npz every
-``output.checkpoint_every`` steps; ``resume=True`` continues from the last checkpoint and gives
-the same results as an uninterrupted run.
+Files: the run writes its own -- summary.json (last, atomically), final_state.npz,
+checkpoint.json/.npz every ``output.checkpoint_every`` steps (``resume=True`` continues from
+the last checkpoint and gives the same results as an uninterrupted run). The output stage
+writes the rest through the ``outputs`` object ``prepare`` is given (``run.outputs``; the
+standard one is ``post.RunOutputs``: timeseries.csv, damage_profiles[_<joint>].csv, results.md,
+PNGs, optional VTK); ``apps.dam.run`` is the whole run with those.
 """
 from __future__ import annotations
 
@@ -37,7 +39,7 @@ import time
 import numpy as np
 from numba import njit
 
-from ..post.files import atomic_savez, atomic_write_json, environment_info
+from .store import atomic_savez, atomic_write_json, environment_info
 from ..setup import FORMULATION, characteristic_times, law_parts, validate, window_note
 from ..solve.joint_laws import initial_stiffness, law_stiffness
 from . import summary as sm
@@ -47,6 +49,7 @@ from .damping import damping_matrix, low_rank_damping, rayleigh_damping
 from .energy import EnergyBudget
 from .history import HIST_KEYS, History, Snapshots, results_from_history
 from .joints import Joints
+from .outputs import Outputs
 from .post_earthquake import PostEarthquakeCheck
 from .safety import FS_DEFINITION, SlidingSafety
 from .statics import solve_pre_earthquake
@@ -101,12 +104,13 @@ class Analysis:
     ``uplift``, ``safety``, ``screening``, ``absorbing``, ``reservoir``, ``stopped`` (None
     or the stop rule's entry), ``static_info``."""
 
-    def __init__(self, scene, out, gm, model, checkpoints, restart, *, progress, plots, log,
+    def __init__(self, scene, out, gm, model, checkpoints, restart, *, progress, outputs, log,
                  t0, t_build):
         from ..fe.modal import k0_from_scene, modal_analysis
 
         self.scene, self.out, self.gm, self.model = scene, out, gm, model
-        self.progress, self.plots, self.log = progress, plots, log
+        self.progress, self.log = progress, log
+        self.outputs = outputs if outputs is not None else Outputs()
         self._t0 = t0
         self.scene_d = scene.to_dict()
         self.checkpoints = checkpoints
@@ -171,8 +175,6 @@ class Analysis:
             Mrx, Mry = model.reservoir.seismic_vectors(Mrx, Mry)
             self.reservoir = ReservoirRun.create(model, scene, solver, self.times, self.ax,
                                                  self.ay, resume, out)
-            if plots and scene.output.vtk_every > 0:
-                self.reservoir.enable_vtk(out)
         self.f_base = model.f_gravity + model.f_water + (np.zeros(model.nfree) if f_tail is None
                                                          else f_tail)
         if self.absorbing is not None:       # total displacements: the record enters as
@@ -196,10 +198,6 @@ class Analysis:
         self.collapse = None
         self.window_note = window_note(scene, gm)
         self.snapshots = Snapshots(self.n_steps, scene.output.snapshots)
-        self.vtk = None
-        if plots and scene.output.vtk_every > 0:
-            from ..post.vtk import VTKWriter
-            self.vtk = VTKWriter(model, out / "vtk" / "dam", joints)
         self.history = None
         self.static_info = None
         self.stopped = None
@@ -399,8 +397,7 @@ class Analysis:
             self._operator_changed()
         if self.snapshots.due(k):
             self.snapshots.take(k, tk, solver)
-        if self.vtk is not None and k % scene.output.vtk_every == 0:
-            self.vtk.write(solver.u, tk, solver)
+        self.outputs.step(self, k, tk)
         self._show(k, rep, jm)
         base = joints.slices[0]
         if jm["base_n_debonded"] < base.stop - base.start and solver.g[0, 0] > self.heel["open"]:
@@ -497,36 +494,26 @@ class Analysis:
                 else self.post_check.run(solver, self.f_base))
         post["wall"] = time.perf_counter() - t_pe
         safety_sum = self.safety.summary(H, scene.time.dt)
-        from ..post.safety_plots import write_safety_outputs
-        files.extend(write_safety_outputs(out, scene, self.gm, H,
-                                          self.static_info.get("joints"), post, safety_sum,
-                                          plots=self.plots, screening=self.screening))
+        files.extend(self.outputs.safety(self, H, post, safety_sum))
         summary = self._summary(H, post, safety_sum, files)
         atomic_write_json(out / "summary.json", summary)     # LAST: the run is complete
         for p in [self.checkpoints.meta_path, *out.glob("checkpoint_*.npz")]:
             if p.exists():                                    # nothing left to resume
                 p.unlink()
-        if self.progress:
-            from ..post.report import format_summary
-            self.log(format_summary(summary))
+        text = self.outputs.report(summary) if self.progress else None
+        if text:
+            self.log(text)
         return summary
 
     def _write_outputs(self, H) -> list[str]:
-        from ..post.results import write_run_outputs
         solver, out, iface = self.solver, self.out, self.model.interface
-        files = write_run_outputs(out, self.model, self.scene, self.gm, H, self.snapshots.data,
-                                  solver, self.u_static, self.joints, plots=self.plots,
-                                  heel=self.heel)
-        if self.vtk is not None:
-            files.extend(self.vtk.files())
+        files = list(self.outputs.results(self, H))
         atomic_savez(out / "final_state.npz", u=solver.u, v=solver.v, a=solver.a,
                      x=iface.x, y=iface.y, w=iface.w,
                      **{f"state_{kk}": vv for kk, vv in solver.state.as_dict().items()})
         files.append("final_state.npz")
         if self.reservoir is not None:
-            from ..post.reservoir import write_reservoir_outputs
             self.reservoir.clear_checkpoints()                # the run is complete
-            files.extend(write_reservoir_outputs(out, self.reservoir, self.plots))
         return files
 
     def _summary(self, H, post, safety_sum, files) -> dict:
@@ -578,13 +565,15 @@ class Analysis:
 
 
 def prepare(scene, outdir=None, *, resume: bool = False, progress: bool = True,
-            plots: bool = True, model=None, log=print) -> Analysis:
+            outputs=None, model=None, log=print) -> Analysis:
     """Everything a run of ``scene`` needs, built and checked; nothing solved yet.
 
     outdir: the results folder (default ``scene.output.dir``); resume: continue from its last
     checkpoint (ValueError naming the key when the scene differs from the checkpoint's);
-    progress: a progress bar and log lines through ``log``; plots: False skips PNG/VTK
-    output; model: a prebuilt model of this scene (tests, studies)."""
+    progress: a progress bar and log lines through ``log``; outputs: what the output stage
+    writes (``run.outputs.Outputs``; ``post.RunOutputs()`` the standard files; None: only
+    the run's own files, summary.json, final_state.npz and the checkpoints); model: a
+    prebuilt model of this scene (tests, studies)."""
     t0 = time.perf_counter()
     gm = validate(scene)                      # nothing is written for a bad scene
     out = pathlib.Path(outdir if outdir is not None else scene.output.dir)
@@ -605,5 +594,7 @@ def prepare(scene, outdir=None, *, resume: bool = False, progress: bool = True,
         from ..fe.model import build_from_scene
         model = build_from_scene(scene)
     t_build = time.perf_counter() - t
-    return Analysis(scene, out, gm, model, checkpoints, restart, progress=progress,
-                    plots=plots, log=log, t0=t0, t_build=t_build)
+    a = Analysis(scene, out, gm, model, checkpoints, restart, progress=progress,
+                 outputs=outputs, log=log, t0=t0, t_build=t_build)
+    a.outputs.start(a)
+    return a

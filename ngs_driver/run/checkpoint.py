@@ -8,7 +8,7 @@ import threading
 
 import numpy as np
 
-from ..post.files import atomic_write_bytes, atomic_write_text, json_text, npz_bytes
+from .store import atomic_write_bytes, atomic_write_text, json_text, npz_bytes
 
 
 def solver_snapshot(solver) -> dict:

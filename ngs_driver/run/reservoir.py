@@ -14,7 +14,7 @@ import pathlib
 
 import numpy as np
 
-from ..post.files import atomic_savez
+from .store import atomic_savez
 
 __all__ = ["ReservoirRun", "FRACTIONS"]
 
@@ -53,18 +53,12 @@ class ReservoirRun:
             self._resume()
         self._pts = self.ac.face_stations(FRACTIONS) if self.ac is not None else None
         self._mips = None
-        self.vtk = None              # post.reservoir.WaterVTK when VTK output is on
 
     @classmethod
     def create(cls, model, scene, solver, times, ax, ay, resume=False, out=None):
         if getattr(model, "reservoir", None) is None:
             return None
         return cls(model, scene, solver, times, ax, ay, resume, out)
-
-    def enable_vtk(self, out):
-        if self.ac is not None:
-            from ..post.reservoir import WaterVTK
-            self.vtk = WaterVTK(out, self.ac)
 
     # -- checkpoints: the water state and the pressure history beside the run's checkpoint ----
     def _state_path(self, k):
@@ -121,8 +115,8 @@ class ReservoirRun:
         return None
 
     def sample(self, k, t):
-        """After step k (time t): the face pressures and the force, the reservoir's checkpoint
-        when one is due, the VTK of p when one is due."""
+        """After step k (time t): the face pressures and the force, and the reservoir's
+        checkpoint when one is due."""
         s = self.solver
         agx, agy = self.ground(s.time)
         self.rows["t"].append(float(t))
@@ -144,9 +138,6 @@ class ReservoirRun:
             self.rows[f"p_y{y:.2f}"].append(float(v))
         if self.out is not None and self.every > 0 and k > 0 and k % self.every == 0:
             self._save(k)                       # same schedule as run/checkpoint.py
-        ve = self.scene.output.vtk_every
-        if p is not None and ve > 0 and k % ve == 0 and self.vtk is not None:
-            self.vtk.write(p, t)
 
     def _station_values(self, p):
         if getattr(self, "_probe", None) is None:

@@ -369,6 +369,9 @@ class NewmarkSolver:
         self.jacobian_reuse = bool(jacobian_reuse)
         self.stats = dict(jacobian_factorisations=0, jacobian_solves=0, jacobian_reuses=0,
                           gmres_iterations=0)
+        # callables fn(solver, h, iterations) run after every commit (h None: a static one):
+        # studies observe the accepted sub-steps without touching the solver (unzip study)
+        self.commit_observers = []
         self.law = law
         self._set_k0(law)
         self._wd = np.repeat(self.w, 2)                     # W on the (2 npts) gap vector
@@ -1007,6 +1010,8 @@ class NewmarkSolver:
         self.f = np.array(f_next, dtype=float)
         if h is not None and getattr(self, "ext", None) is not None:
             self.ext.commit(h)
+        for fn in self.commit_observers:
+            fn(self, h, it)
 
     # ------------------------------------------------------------------ public steps
     def static(self, f, relax: bool = True) -> StepReport:

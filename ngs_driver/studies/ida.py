@@ -288,11 +288,13 @@ def execute(spec: dict, root: str) -> dict:
     scene = from_dict(spec["scene"])
     t0 = time.perf_counter()
     from ..fe.model import build_from_scene
+    from ..post.outputs import RunOutputs
     from ..run import prepare
     model = build_from_scene(scene)
     base = _base_slice(scene, model)
     status, message, summary = "ok", None, None
-    a = prepare(scene, d, progress=False, plots=False, model=model, log=lambda *a, **k: None)
+    a = prepare(scene, d, progress=False, outputs=RunOutputs(plots=False), model=model,
+                log=lambda *a, **k: None)
     try:
         a.static()
         while a.step():

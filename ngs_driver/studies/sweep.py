@@ -203,7 +203,7 @@ def run_scene(spec, root) -> dict:
     d = run_dir(root, spec).resolve()
     d.mkdir(parents=True, exist_ok=True)
     if spec.get("in_process"):
-        from ..run import run
+        from ..apps.dam import run
         from ..scene import load_scene
         run(load_scene(spec["scene_name"], spec["overrides"]), d, progress=False, plots=False,
             log=lambda *a, **k: None)

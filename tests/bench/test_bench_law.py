@@ -156,7 +156,7 @@ def same_run_ratios(n=10**6, rounds=15, before=None):
                   "copy": lambda gap=gap, sa=sa, na=na: copy_roofline(gap, *sa, *na)}
             if old is not None:
                 fs["before"] = (lambda law=law, gap=gap, sa=sa, na=na: old.evaluate_serial(
-                    gap, law._coh, law._con, law._fri, law._dmg, 1.0, *sa, *na))
+                    gap, *law.kernel_params, 1.0, *sa, *na))
             cases[(dim, layout)] = fs
     for fs in cases.values():
         for f in fs.values():

@@ -7,8 +7,8 @@ from pathlib import Path
 
 from ..fe.modal import damping_from_modes, k0_from_scene, modal_analysis
 from ..post.modal import write_frequency_response, write_modal_json
+from ..run.joints import Joints
 from ..solve.joint_laws import initial_stiffness
-from .joints import Joints
 
 __all__ = ["run_modal"]
 

@@ -1,12 +1,14 @@
 """``run(scene, outdir)``: a whole dam run -- ``prepare``, the static state, every step of the
-record, the outputs (``run.analysis`` has the life cycle and what each part does)."""
+record, the standard outputs (``post.RunOutputs``) -- the ``run`` command. ``run.analysis`` has
+the life cycle and what each part does."""
 from __future__ import annotations
 
 import gc
 
-from .analysis import Analysis, prepare
+from ..post.outputs import RunOutputs
+from ..run.analysis import prepare
 
-__all__ = ["run", "RunInterrupted", "prepare", "Analysis"]
+__all__ = ["run", "RunInterrupted"]
 
 
 class RunInterrupted(RuntimeError):
@@ -27,8 +29,8 @@ def run(scene, outdir=None, resume: bool = False, progress: bool = True,
     # when the run ends (gc.unfreeze), so nothing is kept longer than before.
     mine = gc.get_freeze_count() == 0
     try:
-        a = prepare(scene, outdir, resume=resume, progress=progress, plots=plots, model=model,
-                    log=log)
+        a = prepare(scene, outdir, resume=resume, progress=progress,
+                    outputs=RunOutputs(plots=plots), model=model, log=log)
         a.static()
         if mine:
             gc.freeze()
