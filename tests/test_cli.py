@@ -87,6 +87,11 @@ def test_run_paper_smoke(tmp_path, capsys):
         assert (cmp / f).exists(), f
     md = (cmp / "results.md").read_text()
     assert "SYNTHETIC" in md and "D(alpha=2) ≤ D(alpha=1)²" in md and "6.0 s" in md
+    # the table's numbers are the runs' own (summary.json), formatted as the table does
+    r2, r1 = (json.loads((tmp_path / d / "summary.json").read_text())["results"]
+              for d in ("koyna_alpha2", "koyna_alpha1"))
+    assert f"max D {r2['max_D']:.3g} (alpha 2) vs {r1['max_D']:.3g} (alpha 1)" in md
+    assert f"max D = {r1['max_D']:.3g}" in md
     # compare alone on the finished runs
     assert main(["compare", str(tmp_path / "koyna_alpha2"), str(tmp_path / "koyna_alpha1"),
                  "--out", str(tmp_path / "c2")]) == 0

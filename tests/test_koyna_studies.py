@@ -50,7 +50,6 @@ def test_report_rows_and_files(fast_study):
               "koyna_gmax.png", "koyna_studies_summary.txt"):
         assert (out / f).stat().st_size > 0, f
     assert "gauss_points" in msg
-    assert wall < 60.0, f"fast study took {wall:.1f} s"
 
 
 def test_repeatable(fast_study):

@@ -67,11 +67,11 @@ def test_unshifted_pairing_is_the_matching_operator(small_model):
 
 def test_block_sliding_on_a_stiff_rock_is_paired_anew_and_slides_as_on_rigid_ground(tmp_path):
     """The sliding_block (0.14 m of slip) on a rock block 1000x stiffer than concrete, its
-    interface elements 0.25 m (pairing tolerance 0.25 of them: 6 cm): the run pairs the base
-    anew as it slides, and the permanent slip is the rigid foundation's (measured 2e-4
+    interface elements 0.5 m (pairing tolerance 0.1 of them: 5 cm, so 0.14 m of slip passes
+    it at least twice): the run pairs the base anew as it slides, and the permanent slip is the rigid foundation's (measured 2e-4
     relative; tolerance 2e-3: the rock's compliance under the moving load is ~1e-4 of the
     block's slip)."""
-    from ngs_driver.run import run
+    from ngs_driver.apps.dam import run
     sets = ["mesh.h_interface=0.5", "mesh.h_heel=0.5", "solver.pairing_tolerance=0.1"]
     rigid = run(load_scene("sliding_block", sets + ["geometry.foundation=rigid"]),
                 tmp_path / "rigid", progress=False, plots=False)
