@@ -440,7 +440,7 @@ def section(r: dict, fast: bool) -> list[str]:
             f"{_load(rows[0])} | {ok(min(x['wall_s'] for x in rows) <= 10)} (10 s on any of "
             f"them) |")
     if t2:
-        ex = " + ".join(f"{lv:g} g: {v['wall_per_record_s']:.2f} s/s × {t2['suite_record_s']:.0f} s"
+        ex = " + ".join(f"{float(lv):g} g: {v['wall_per_record_s']:.2f} s/s × {t2['suite_record_s']:.0f} s"
                         for lv, v in sorted(t2["per_level"].items(), key=lambda kv: float(kv[0])))
         ncoll = sum(1 for x in t2["runs"] if x.get("collapse"))
         err = t2.get("errors") or []
