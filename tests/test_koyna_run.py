@@ -232,3 +232,19 @@ def test_energy_balance_study_fast(tmp_path, study):
     assert rows["linear"]["residual"] < 1e-9
     assert rows["nonlinear dt=0.001"]["residual"] < rows["nonlinear dt=0.002"]["residual"] < 1e-2
     assert (tmp_path / "energy_balance.md").exists() and (tmp_path / "energy_balance.png").exists()
+
+
+def test_vtk_of_the_water_written_with_the_dam(tmp_path):
+    """With the acoustic water and output.vtk_every = k, the output stage writes the water's
+    pressure beside the dam every k steps (post.RunOutputs; 20 steps, k = 10: two files each)
+    and lists them in summary.json."""
+    from ngs_driver.apps.dam import run
+    from ngs_driver.scene import load_scene
+    sc = load_scene("koyna_smoke", ["reservoir.model=acoustic", "output.vtk_every=10",
+                                    "time.duration=0.04", "output.checkpoint_every=0"])
+    s = run(sc, tmp_path, progress=False)
+    water = sorted((tmp_path / "vtk").glob("water_*.vtu"))
+    assert [w.name for w in water] == ["water_00000.vtu", "water_00001.vtu"]
+    assert all(w.stat().st_size > 1000 for w in water)
+    assert {f"vtk/{w.name}" for w in water} <= set(s["files"])
+    assert len(sorted((tmp_path / "vtk").glob("dam*.vtu"))) == 2
