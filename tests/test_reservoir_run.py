@@ -85,7 +85,8 @@ def test_compressible_run_tends_to_the_incompressible_run(tmp_path, sides):
     face force history with compressible water of c = 1e5 m/s follows the incompressible run
     (added mass + exact ground-driven pressure) within 3 % of its peak (measured 1.3 % over
     0.3 s: the water rings at c / 4H = 270 Hz from the start; O((omega H / c)^2) is 1e-6),
-    while real water (c = 1440 m/s) differs by far more (measured 86 %).  Also with absorbing
+    while real water (c = 1440 m/s) differs by far more (measured 118 % and 117 % of the peak,
+    asserted > 30 %).  Also with absorbing
     rock boundaries, where the run is in total displacements and only the bottom / far end are
     driven by a_g (measured 0.2 %; with the relative-formulation forcing the force was 4x
     too large)."""
@@ -96,7 +97,8 @@ def test_compressible_run_tends_to_the_incompressible_run(tmp_path, sides):
     base = ["reservoir.model=acoustic", "ground_motion.start=0.0", "time.duration=0.2",
             "reservoir.far_end=rigid", f"geometry.rock_sides={sides}"]
     F = {}
-    for lab, sets, c in (("inc", ["reservoir.compressible=false"], None), ("c1e5", [], 1e5)):
+    for lab, sets, c in (("inc", ["reservoir.compressible=false"], None), ("c1e5", [], 1e5),
+                         ("c1440", [], 1440.0)):
         sc = load_scene("koyna_smoke", base + sets)
         md = build_from_scene(sc, reservoir=dataclasses.replace(sc.reservoir, sound_speed=c)) \
             if c else None
@@ -105,6 +107,8 @@ def test_compressible_run_tends_to_the_incompressible_run(tmp_path, sides):
         F[lab] = np.array([float(r["Fx_N_per_m"]) for r in rows])
     assert np.abs(F["inc"]).max() > 1e5                      # the water does push (N/m)
     assert np.abs(F["c1e5"] - F["inc"]).max() <= 0.03 * np.abs(F["inc"]).max()
+    # the 3 % tells the two apart: real water's compressibility is far outside it
+    assert np.abs(F["c1440"] - F["inc"]).max() > 0.3 * np.abs(F["inc"]).max()
 
 
 def test_resume_with_compressible_water_is_exact(tmp_path):
