@@ -74,8 +74,8 @@ def test_mesh_triangles_from_netgen_arrays(smoke_model):
     """The figures' triangles from netgen's element arrays are NGSolve's element loop's."""
     import ngsolve as ngs
 
-    from ngs_driver.post.plots import _mesh_triangles
-    P, reg = _mesh_triangles(smoke_model.mesh)
+    from ngs_driver.post.plots import mesh_triangles
+    P, reg = mesh_triangles(smoke_model.mesh)
     mesh = smoke_model.mesh
     V = np.array([v.point for v in mesh.vertices])
     els = list(mesh.Elements(ngs.VOL))

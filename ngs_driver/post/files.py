@@ -21,7 +21,7 @@ __all__ = ["atomic_write_bytes", "atomic_write_text", "atomic_write_json", "atom
            "read_csv", "json_text", "npz_bytes"]
 
 
-def _csv_text(header: list[str], cols: list[np.ndarray], comments=()) -> str:
+def csv_text(header: list[str], cols: list[np.ndarray], comments=()) -> str:
     """Comment lines, the header and one row per index, each value its shortest repr that
     round-trips (exact values). Built column by column: a column with few distinct values
     (counters, flags, constants: about half the history's columns) formats each distinct
@@ -43,7 +43,7 @@ def _csv_text(header: list[str], cols: list[np.ndarray], comments=()) -> str:
 
 
 def write_timeseries_csv(path, H: dict, keys, comments=()):
-    return atomic_write_text(path, _csv_text(list(keys), [H[k] for k in keys], comments))
+    return atomic_write_text(path, csv_text(list(keys), [H[k] for k in keys], comments))
 
 
 def write_damage_csv(path, x, w, snaps, comments=(), sl=slice(None)):
@@ -53,7 +53,7 @@ def write_damage_csv(path, x, w, snaps, comments=(), sl=slice(None)):
               + [f"opening_t={t:.4f}" for t in ts] + [f"slip_t={t:.4f}" for t in ts])
     cols = [x[sl], w[sl]] + [np.asarray(v)[sl] for key in ("D", "kappa", "opening", "slip")
                              for v in snaps[key]]
-    return atomic_write_text(path, _csv_text(header, cols, comments))
+    return atomic_write_text(path, csv_text(header, cols, comments))
 
 
 def read_csv(path) -> dict:

@@ -167,7 +167,7 @@ def mesh_cells(model, box=None, triangles=None):
     if triangles is not None:
         P, reg, C = triangles
     else:
-        P, reg = _mesh_triangles(model.mesh)
+        P, reg = mesh_triangles(model.mesh)
         C = P.mean(axis=1)
     if box is not None:
         x0, x1, y0, y1 = box
@@ -176,7 +176,7 @@ def mesh_cells(model, box=None, triangles=None):
     return P, reg, C
 
 
-def _mesh_triangles(mesh):
+def mesh_triangles(mesh):
     """(vertex coordinates (ntri, 3, 2), region names) of the volume elements, in NGSolve's
     element order. From netgen's arrays (~1 ms) when every element is a triangle whose
     first three nodes are NGSolve vertices (netgen point i = vertex i - 1 ... checked);

@@ -297,7 +297,7 @@ class NewmarkSolver:
     max_iter : Newton iterations per attempt before the step is cut
     stall_iterations : m > 0: a dynamic attempt is also cut when the best residual of its last
               m iterations is not below half the best before them (Newton cycling between
-              active sets; ``_stalled``); 0: only ``max_iter`` cuts
+              active sets; ``stalled``); 0: only ``max_iter`` cuts
     min_dt  : smallest sub-step; below it SolverError is raised (default dt / 2**10)
     method  : "condensed" (default) or "full" (re-factorising reference)
     line_search : backtracking on the residual norm
@@ -686,12 +686,12 @@ class NewmarkSolver:
             if it == 0:
                 self._rhist = []
             self._rhist.append(rnorm)
-            if self._stalled(self._rhist, self._stall):
+            if self.stalled(self._rhist, self._stall):
                 return False
         return None
 
     @staticmethod
-    def _stalled(hist, m) -> bool:
+    def stalled(hist, m) -> bool:
         """The best of the last m residuals is not below half the best before them. The
         attempts that fail on the Koyna scenes cycle between active sets with the residual
         stuck above tolerance (e.g. 10^-3.7 ... 10^-3.9 repeating); none of the attempts that

@@ -159,7 +159,7 @@ def _load_base_scene(scene, overrides):
     return scene
 
 
-def _run_scene(base, address, scale, window: str = "scene"):
+def run_scene(base, address, scale, window: str = "scene"):
     """The scene of one run. window 'scene': the scene's own start/duration; 'record': the
     whole record (start 0, duration = the record's length)."""
     from ..scene import from_dict
@@ -435,19 +435,19 @@ def run_ida(scene, *, suite: str, im: str, levels, out, records=None, components
         for p in pending:
             key = p["address"]
             if key not in cache:
-                unit = _run_scene(base, key, 1.0, window)
+                unit = run_scene(base, key, 1.0, window)
                 try:
                     validate(unit)          # the window inside the record, as --dry-run
                 except ValueError as e:
                     raise StudyInputError(f"run {p['id']}: {e}") from None
                 cache[key] = scale_factor(unit, im, 1.0, T1)[1]
-                w = _window_note(unit)
+                w = strong_motion_note(unit)
                 if w:
                     say(f"note: {key}: {w}")
             im0 = cache[key]
             sf = p["level_g"] / im0
             try:
-                sc = _run_scene(base, key, sf, window)
+                sc = run_scene(base, key, sf, window)
             except ValueError as e:
                 raise StudyInputError(f"run {p['id']}: {e} (scale factor {sf:.4g} = level "
                                       f"{p['level_g']:g} g / {im} {im0:.4g} g of the record)") \
@@ -503,7 +503,7 @@ def run_ida(scene, *, suite: str, im: str, levels, out, records=None, components
             "skipped": len(plan) - len(pending), "errors": errors, "files": files}
 
 
-def _window_note(scene) -> str | None:
+def strong_motion_note(scene) -> str | None:
     """A note when the analysed window [start, start + duration] misses part of the record's
     strong motion (5-95 % Arias intensity, Trifunac & Brady 1975): the IM is the record's, the
     dam sees only the window."""

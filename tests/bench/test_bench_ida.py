@@ -77,13 +77,13 @@ def test_bench_ida_default_scene_run(benchmark, request, tmp_path):
     _enabled(request)
     from ngs_driver.scene import load_scene
     from ngs_driver.setup import fema_records as fema
-    from ngs_driver.studies.ida import _run_scene, execute
+    from ngs_driver.studies.ida import run_scene, execute
     from ngs_driver.studies.im import scale_factor
     base = load_scene("koyna")
     addr = fema.address("farfield", 1, "a")
-    f, _ = scale_factor(_run_scene(base, addr, 1.0), "pga", 0.2)
+    f, _ = scale_factor(run_scene(base, addr, 1.0), "pga", 0.2)
     spec = {"id": "bench", "set": "farfield", "record": 1, "component": "a", "address": addr,
-            "im": "pga", "level_g": 0.2, "scale": f, "scene": _run_scene(base, addr, f).to_dict()}
+            "im": "pga", "level_g": 0.2, "scale": f, "scene": run_scene(base, addr, f).to_dict()}
     box = {}
 
     def one():
