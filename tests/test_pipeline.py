@@ -333,3 +333,15 @@ def test_lift_joint_scene_runs(tmp_path, cli_env):
     # no lift joint, linear run: the budget closes to round-off (tests/test_koyna_run.py has
     # the nonlinear one); here the joints are elastic at 0.05 s of the record's start
     assert s["energy"]["max_residual_over_input_work"] < 1e-8
+
+
+def test_moved_names_say_where_they_went():
+    """The whole run moved to apps/ (the run stage does not import the output stage), and
+    prepare's plots= became an outputs object: the old spellings fail with the new ones named,
+    not with a bare AttributeError or TypeError."""
+    from ngs_driver.run import prepare
+    from ngs_driver.scene import load_scene
+    with pytest.raises(ImportError, match=r"ngs_driver\.apps\.dam import run"):
+        from ngs_driver.run import run  # noqa: F401
+    with pytest.raises(TypeError, match=r"outputs=ngs_driver\.post\.outputs\.RunOutputs\(plots=False\)"):
+        prepare(load_scene("koyna_smoke"), plots=False)

@@ -565,7 +565,7 @@ class Analysis:
 
 
 def prepare(scene, outdir=None, *, resume: bool = False, progress: bool = True,
-            outputs=None, model=None, log=print) -> Analysis:
+            outputs=None, model=None, log=print, plots=None) -> Analysis:
     """Everything a run of ``scene`` needs, built and checked; nothing solved yet.
 
     outdir: the results folder (default ``scene.output.dir``); resume: continue from its last
@@ -573,7 +573,11 @@ def prepare(scene, outdir=None, *, resume: bool = False, progress: bool = True,
     progress: a progress bar and log lines through ``log``; outputs: what the output stage
     writes (``run.outputs.Outputs``; ``post.RunOutputs()`` the standard files; None: only
     the run's own files, summary.json, final_state.npz and the checkpoints); model: a
-    prebuilt model of this scene (tests, studies)."""
+    prebuilt model of this scene (tests, studies). plots: no longer taken here (the figures
+    are the output stage's): a clear error names its replacement."""
+    if plots is not None:
+        raise TypeError(f"prepare(plots={plots!r}): the figures are the output stage's; pass "
+                        f"outputs=ngs_driver.post.outputs.RunOutputs(plots={plots!r})")
     t0 = time.perf_counter()
     gm = validate(scene)                      # nothing is written for a bad scene
     out = pathlib.Path(outdir if outdir is not None else scene.output.dir)
