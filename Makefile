@@ -2,19 +2,19 @@
 PY      ?= python3
 VENV    := .venv
 VPY     := $(VENV)/bin/python
-STAMP   := $(VENV)/.installed-$(shell cat pyproject.toml | cksum | cut -d' ' -f1)
+STAMP   := $(VENV)/.installed-$(shell cat pyproject.toml constraints.txt | cksum | cut -d' ' -f1)
 export NUMBA_CACHE_DIR ?= $(CURDIR)/.numba_cache
 export OMP_NUM_THREADS ?= 1
 export OPENBLAS_NUM_THREADS ?= 1
 export MKL_NUM_THREADS ?= 1
 export MPLBACKEND ?= Agg
 
-.PHONY: venv run test bench bench-koyna verify clean
+.PHONY: venv run test bench bench-koyna verify clean upgrade-deps
 
-$(STAMP): pyproject.toml
+$(STAMP): pyproject.toml constraints.txt
 	test -x $(VPY) || $(PY) -m venv $(VENV)
 	$(VPY) -m pip install --quiet --upgrade pip
-	$(VPY) -m pip install --quiet -e ".[fe,dev,studies]"
+	$(VPY) -m pip install --quiet -c constraints.txt -e ".[fe,dev,studies]"
 	rm -f $(VENV)/.installed-* && touch $@
 
 venv: $(STAMP)
@@ -31,18 +31,26 @@ test: $(STAMP)
 	$(VPY) -m pytest -q --benchmark-disable -n 2 --dist loadfile tests
 
 bench: $(STAMP)
-	$(VPY) -m pip install --quiet -e ".[bench]"
+	$(VPY) -m pip install --quiet -c constraints.txt -e ".[bench]"
 	$(VPY) -m pytest -q tests/bench --benchmark-only --benchmark-json=.benchmarks.json
 	$(VPY) verification/write_benchmarks.py
 	$(VPY) verification/bench_speed2.py
 
 # the long Koyna benchmark study (DOF/point scaling, full 10 s runs, OpenSeesPy): ~15 min
 bench-koyna: $(STAMP)
-	$(VPY) -m pip install --quiet -e ".[bench]"
+	$(VPY) -m pip install --quiet -c constraints.txt -e ".[bench]"
 	$(VPY) verification/bench_koyna.py
 
 verify: $(STAMP)
 	$(VPY) verification/run_all.py
+
+# the newest versions pyproject.toml allows, the suite run on them, and constraints.txt
+# rewritten only when it passes (then commit constraints.txt with the suite's result)
+upgrade-deps: $(STAMP)
+	$(VPY) -m pip install --quiet --upgrade -e ".[fe,dev,studies]"
+	$(VPY) -m pytest -q --benchmark-disable -n 2 --dist loadfile tests
+	$(VPY) -m pip freeze --exclude-editable | grep -iv '^dam-seismic' > .constraints.new
+	{ sed -n '/^#/p' constraints.txt; cat .constraints.new; } > constraints.txt && rm -f .constraints.new
 
 clean:
 	rm -rf $(VENV) .numba_cache verification/out
