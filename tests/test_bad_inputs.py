@@ -291,11 +291,13 @@ def test_ida_out_that_is_a_file(tmp_path):
 def test_resume_with_another_scene_names_the_key(tmp_path, capsys):
     """--resume (with --dry-run too) against a checkpoint of another scene: exit 2 naming the
     first key that differs, with both values."""
-    import json
+    from ngs_driver.run.checkpoint import Checkpointer
     d = tmp_path / "r"
     d.mkdir()
     scene = load_scene("koyna_smoke").to_dict()
-    (d / "checkpoint.json").write_text(json.dumps({"scene": scene, "step": 10}))
+    ck = Checkpointer(d, 10)
+    ck.save(10, {"scene": scene}, u=np.zeros(3))
+    ck.wait()
     rc, out, err = _dry(["run", "koyna_smoke", "--resume", "--dry-run", "--out", str(d),
                          "--set", "interface.alpha=1"], capsys)
     assert rc == 2 and "interface.alpha = 2.0 in the checkpoint, 1.0 now" in err, err

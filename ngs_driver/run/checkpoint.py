@@ -58,17 +58,24 @@ def scene_difference(have, want, path="") -> str | None:
     return f"{path or 'scene'} = {have!r} in the checkpoint, {want!r} now"
 
 
-RESUME_FREE = ("output",)       # scene sections that may change on --resume (no result changes)
+# keys that may change on --resume: they change where and how often files are written, not a
+# number of the results (output.snapshots does: the D(x) profiles' times; it must stay)
+RESUME_FREE = ("output.dir", "output.checkpoint_every", "output.vtk_every")
 
 
 def _resumable(d: dict) -> dict:
-    """The scene dict without the keys that do not change results (``RESUME_FREE``)."""
-    return {k: v for k, v in d.items() if k not in RESUME_FREE}
+    """The scene dict without the keys ``RESUME_FREE``."""
+    d = dict(d)
+    for key in RESUME_FREE:
+        sec, name = key.split(".")
+        if isinstance(d.get(sec), dict):
+            d[sec] = {k: v for k, v in d[sec].items() if k != name}
+    return d
 
 
 def resume_difference(have: dict, want: dict) -> str | None:
-    """``scene_difference`` of two scene dicts on the keys that change results: the output
-    section (folder, checkpoint and VTK intervals, snapshot count) may differ on --resume."""
+    """``scene_difference`` of two scene dicts on the keys that change results (all but
+    ``RESUME_FREE``)."""
     return scene_difference(_resumable(have), _resumable(json.loads(json.dumps(want))))
 
 

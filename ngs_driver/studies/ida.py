@@ -293,8 +293,10 @@ def execute(spec: dict, root: str) -> dict:
     model = build_from_scene(scene)
     base = _base_slice(scene, model)
     status, message, summary = "ok", None, None
+    # the worker owns its run's folder (run.folder's lock, taken by prepare); an attempt
+    # retried after a dead worker replaces the earlier attempt's files
     a = prepare(scene, d, progress=False, outputs=RunOutputs(plots=False), model=model,
-                log=lambda *a, **k: None)
+                log=lambda *a, **k: None, overwrite=True)
     try:
         a.static()
         while a.step():
