@@ -4,6 +4,7 @@ before any work, checkpoints committed as one set and a damaged one named (docs/
 import json
 import os
 import pathlib
+import re
 import shutil
 import subprocess
 import sys
@@ -22,6 +23,10 @@ from ngs_driver.fe.model import build_from_scene  # noqa: E402
 from ngs_driver.run import checkpoint as ckmod  # noqa: E402
 from ngs_driver.run.checkpoint import CheckpointDamaged, Checkpointer  # noqa: E402
 from ngs_driver.run.folder import FolderError  # noqa: E402
+from ngs_driver.setup import describe  # noqa: E402
+from ngs_driver.setup.uplift import drain_line  # noqa: E402
+from conftest import run_fast_study  # noqa: E402
+import verification.fuzz_edges as fz  # noqa: E402
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 QUIET = dict(progress=False, plots=False, log=lambda *a, **k: None)
@@ -292,7 +297,6 @@ def test_sanity_refused_at_dry_run(sets, pat, capsys):
     """Values each key's range allows that make a run absurd or unmeshable: exit 2 at
     --dry-run naming the key, the value and the bound (before: exit 0 and a dam sunk 12 m,
     or 'meshing failed' after the dry run passed)."""
-    import re
     argv = ["run", "koyna_smoke", "--dry-run"]
     for s in sets:
         argv += ["--set", s]
@@ -303,8 +307,6 @@ def test_sanity_refused_at_dry_run(sets, pat, capsys):
 def test_drains_alone_and_high_damping_modes_run(tmp_path):
     """uplift.model = 'drains' with no drain_x runs (drain line at 10 % of the joint: 7 m on
     Koyna's 70 m base), and damping at mode 50 is computed, not an IndexError."""
-    from ngs_driver.setup import describe
-    from ngs_driver.setup.uplift import drain_line
     sc = load_scene("koyna_smoke", ["uplift.model=drains"])
     d = describe(sc)["will_build"]["uplift"]["base"]
     assert drain_line(sc.uplift, 70.0) == pytest.approx(7.0)
@@ -313,3 +315,21 @@ def test_drains_alone_and_high_damping_modes_run(tmp_path):
     s = run(sc, tmp_path / "m50", **QUIET)
     assert len(s["frequencies_hz"]) == 50
     assert s["rayleigh"]["f_b"] == pytest.approx(s["frequencies_hz"][49])
+
+
+def test_fuzz_over_the_allowed_edges(tmp_path):
+    """The smallest and largest allowed value of the fast form's keys (verification/
+    fuzz_edges.py through make verify's call; make verify runs all 98 edges of the koyna
+    schema, 10-22 s), each run for two steps on koyna_smoke: refused at --dry-run, ran, or a
+    solver failure -- never a crash (before: damping.modes = [49, 50] an IndexError, E or rho
+    = 5e-324 'Factor is exactly singular', nu = 0.5 - 1e-16 a ValueError after the build)."""
+    text = run_fast_study("fuzz_edges", tmp_path)      # raises on any crash
+    rows = [r for r in text.splitlines() if r.startswith("| ") and not r.startswith("| key")]
+    assert len(rows) == 2 * len(fz.FAST_KEYS)
+    out = {tuple(c.strip() for c in r.split("|")[1:4]) for r in rows}
+    assert ("damping.modes", "[49, 50]", "ran") in out
+    assert ("interface.contact_stiffness", "1e+20", "ran") in out
+    assert ("materials.dam.E", "5e-324", "refused at --dry-run") in out
+    assert ("materials.dam.nu", "0.49999999999999994", "refused at --dry-run") in out
+    assert sum(r[2] == "ran" for r in out) >= 12
+    assert len(fz.edges()) >= 90                       # the whole sweep's size (make verify)

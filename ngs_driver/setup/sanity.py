@@ -6,6 +6,7 @@ allows that together make a run absurd or unmeshable (docs/solver.md §8.7).
   ``PENETRATION_FRACTION`` of the smallest element on that joint.
 * Joints too close to the base, to each other or to the crest for the mesh: the layer between
   two cuts must hold one element of the finer of their end sizes.
+* Materials beyond any dam's (``MATERIAL_BOUNDS``): E and rho near 0, nu near 0.5.
 * Keys a model does not read, given a value (``uplift.drain_x`` without drains) and a record
   scaled to nothing (``ground_motion.scale = 0``) are refused rather than ignored.
 """
@@ -120,9 +121,32 @@ def _unused(scene) -> str | None:
     return None
 
 
+# Materials: the schema's open lower bound 0 lets E and rho reach 5e-324 (the factorisation is
+# then exactly singular) and nu reach 0.5 - 1e-16 (the modal analysis finds f1 = 0), measured
+# by verification/fuzz_edges.py. The floors are far below any dam or foundation material
+# (soft clay ~5-20 MPa; rho 1 kg/m^3, about air's, still admits the nearly massless dam of
+# tests/test_foundation.py's wave check), the ceiling on nu above any concrete (0.15-0.25) or
+# rock (<= 0.4): displacement elements lock volumetrically as nu -> 0.5.
+MATERIAL_BOUNDS = {"E": (1e6, None, "Pa", "softer than any soil a dam stands on"),
+                   "rho": (1.0, None, "kg/m^3", "lighter than air"),
+                   "nu": (None, 0.49, "", "nearly incompressible: the elements lock")}
+
+
+def _materials(scene) -> str | None:
+    for part in ("dam", "rock"):
+        mat = getattr(scene.materials, part)
+        for name, (lo, hi, unit, why) in MATERIAL_BOUNDS.items():
+            v = getattr(mat, name)
+            if (lo is not None and v < lo) or (hi is not None and v > hi):
+                rng = f">= {lo:g} {unit}" if lo is not None else f"<= {hi:g}"
+                return (f"materials.{part}.{name} = {v!r}: {why}; allowed: {rng} "
+                        "(docs/solver.md §8.7)")
+    return None
+
+
 def check_scene(scene) -> None:
     """Raise ValueError naming the key, the value and what is allowed (module docstring)."""
-    for check in (_unused, joint_spacing, _contact):
+    for check in (_materials, _unused, joint_spacing, _contact):
         why = check(scene)
         if why is not None:
             raise ValueError(why)
