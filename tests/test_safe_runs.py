@@ -151,43 +151,71 @@ def test_read_only_and_impossible_folders_at_dry_run(tmp_path, capsys):
 
 
 # -------------------------------------------------------------- a kill at every write point
+class _LateThread:
+    """A checkpoint writer thread that runs when it is joined: the latest schedule the run
+    allows (the next step's work all done before the previous checkpoint is on disk)."""
+
+    def __init__(self, target, args=(), name=None, **kw):
+        self._run = lambda: target(*args)
+
+    def start(self):
+        pass
+
+    def join(self):
+        self._run()
+
+
 def test_kill_at_every_checkpoint_write_resumes_bitwise(tmp_path, monkeypatch):
     """Compressible water, a checkpoint every step: the folder as a kill would leave it before
-    and after each write of every checkpoint (with a half-written temporary file), each
-    resumed, gives the uninterrupted run's final state and pressure history bit for bit, and
-    the temporary files are gone (before: 2 of 10 kills left 'reservoir_state_... missing')."""
+    and after every rename and every removal of a checkpoint file (a kill in the middle of a
+    write: its temporary file half written), each resumed, gives the uninterrupted run's final
+    state and pressure history bit for bit, and the temporary files are gone. The writer runs
+    as late as the run allows (``_LateThread``). Before: the water state of step k-2 was
+    removed before checkpoint.json committed step k-1 ('reservoir_state_... missing')."""
     sc = load_scene("koyna_smoke", ["reservoir.model=acoustic", "time.duration=0.006",
                                     "output.checkpoint_every=1"])
     ref = tmp_path / "ref"
     run(sc, ref, **QUIET)
+    live = (tmp_path / "live").resolve()
     states = []
-    real_b, real_t = ckmod.atomic_write_bytes, ckmod.atomic_write_text
+    real_replace, real_unlink = os.replace, os.unlink
 
-    def snap(tag, target):
-        d = tmp_path / f"kill{len(states):02d}"
-        shutil.copytree(tmp_path / "live", d)
-        if tag == "before":       # killed in the middle of this write: its temporary file
-            (d / f".{pathlib.Path(target).name}.x1y2.tmp").write_bytes(b"PK\x03\x04half")
-        states.append((tag, pathlib.Path(target).name, d))
+    def ours(path):
+        p = pathlib.Path(path).resolve()
+        return p.parent == live and any(w in p.name for w in ("checkpoint", "reservoir_state"))
 
-    def wb(path, data):
-        snap("before", path)
-        real_b(path, data)
+    def snap(op, path, when):
+        d = tmp_path / f"kill{len(states):03d}"
+        shutil.copytree(live, d)
+        for t in d.glob(".*.tmp"):         # killed while writing it: half of it on disk
+            t.write_bytes(t.read_bytes()[: t.stat().st_size // 2])
+        states.append((f"{when} {op} {pathlib.Path(path).name}", d))
 
-    def wt(path, text):
-        snap("before", path)
-        real_t(path, text)
-        snap("after", path)
+    def replace(src, dst, **kw):
+        if not ours(dst):
+            return real_replace(src, dst, **kw)
+        snap("replace", dst, "before")
+        real_replace(src, dst, **kw)
+        snap("replace", dst, "after")
 
-    monkeypatch.setattr(ckmod, "atomic_write_bytes", wb)
-    monkeypatch.setattr(ckmod, "atomic_write_text", wt)
+    def unlink(path, **kw):
+        if not ours(path):
+            return real_unlink(path, **kw)
+        snap("unlink", path, "before")
+        real_unlink(path, **kw)
+
+    monkeypatch.setattr(ckmod.threading, "Thread", _LateThread)
+    monkeypatch.setattr(os, "replace", replace)
+    monkeypatch.setattr(os, "unlink", unlink)
     run(sc, tmp_path / "live", **QUIET)
     monkeypatch.undo()
-    assert len(states) >= 3 * 4 - 1       # 3 checkpoints: npz, (prev), json before + after
+    assert len(states) >= 3 * 3           # 3 checkpoints, each with >= 3 file operations
     za = np.load(ref / "final_state.npz")
     pa = (ref / "reservoir_pressure.csv").read_text()
     resumed = 0
-    for tag, name, d in states:
+    for what, d in states:
+        if (d / "summary.json").exists():       # killed after the run finished: nothing to do
+            continue
         if not (d / "checkpoint.json").exists():
             with pytest.raises(FileNotFoundError, match="no checkpoint"):
                 run(sc, d, resume=True, **QUIET)
@@ -196,10 +224,10 @@ def test_kill_at_every_checkpoint_write_resumes_bitwise(tmp_path, monkeypatch):
         resumed += 1
         zb = np.load(d / "final_state.npz")
         for k in za.files:
-            assert np.array_equal(za[k], zb[k]), (tag, name, d.name, k)
-        assert (d / "reservoir_pressure.csv").read_text() == pa, (tag, name, d.name)
+            assert np.array_equal(za[k], zb[k]), (what, d.name, k)
+        assert (d / "reservoir_pressure.csv").read_text() == pa, (what, d.name)
         assert s["resumed_from_step"] >= 1
-        assert not list(d.glob(".*.tmp")) and not list(d.glob("checkpoint*")), d.name
+        assert not list(d.glob(".*.tmp")) and not list(d.glob("checkpoint*")), (what, d.name)
     assert resumed >= 8
 
 
