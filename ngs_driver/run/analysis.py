@@ -106,7 +106,9 @@ class Analysis:
     ``solver``, ``modal``, ``damping`` (the Rayleigh dict), ``gm`` (the ground motion),
     ``times``, ``n_steps``, ``k`` (steps done), ``history``, ``snapshots``, ``energy``,
     ``uplift``, ``safety``, ``screening``, ``absorbing``, ``reservoir``, ``stopped`` (None
-    or the stop rule's entry), ``static_info``."""
+    or the stop rule's entry), ``static_info``, ``lock`` (the results folder's
+    ``run.folder.FolderLock``, released by ``finish`` or ``release()``), ``previous_files``
+    (the files of the finished run this one replaces, or None)."""
 
     def __init__(self, scene, out, gm, model, checkpoints, restart, *, progress, outputs, log,
                  t0, t_build):
