@@ -9,6 +9,7 @@ import shutil
 import subprocess
 import sys
 import time
+import types
 
 import numpy as np
 import pytest
@@ -204,7 +205,7 @@ def test_kill_at_every_checkpoint_write_resumes_bitwise(tmp_path, monkeypatch):
         snap("unlink", path, "before")
         real_unlink(path, **kw)
 
-    monkeypatch.setattr(ckmod.threading, "Thread", _LateThread)
+    monkeypatch.setattr(ckmod, "threading", types.SimpleNamespace(Thread=_LateThread))
     monkeypatch.setattr(os, "replace", replace)
     monkeypatch.setattr(os, "unlink", unlink)
     run(sc, tmp_path / "live", **QUIET)
