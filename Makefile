@@ -20,8 +20,8 @@ $(STAMP): pyproject.toml constraints.txt
 venv: $(STAMP)
 
 run: $(STAMP)
-	$(VPY) -m ngs_driver run-paper koyna --out results
-	$(VPY) -m ngs_driver run koyna_engineering --out results/koyna_engineering
+	$(VPY) -m ngs_driver run-paper koyna --out results --overwrite
+	$(VPY) -m ngs_driver run koyna_engineering --out results/koyna_engineering --overwrite
 
 # both cores: on a fresh clone (cold numba cache) most of the suite is numba compiling the law's
 # kernels; one worker per core, each test file on one worker (its fixtures built once).

@@ -1,14 +1,18 @@
 """Command line: ``dam-seismic`` / ``python -m ngs_driver``.
 
-    run SCENE [--set key=value ...] [--resume] [--dry-run] [--out DIR] [--quiet]
-    run-paper [SCENE] [--set ...] [--out DIR] [--quiet]   alpha = 2 and alpha = 1 + comparison
+    run SCENE [--set key=value ...] [--resume | --overwrite] [--dry-run] [--out DIR] [--quiet]
+    run-paper [SCENE] [--set ...] [--out DIR] [--resume | --overwrite] [--quiet]
+                                                           alpha = 2 and alpha = 1 + comparison
     compare DIR_A DIR_B [--out DIR]                        comparison of two finished runs
     modal SCENE [--set ...] [--out DIR] [-n N]             natural frequencies -> modal.json
     verify [--fast]                                        verification/run_all.py
     bench                                                  pytest benchmarks (tests/bench)
 
-Exit codes: 0 success, 1 run failure (solver, I/O), 2 bad input (scene, --set, arguments),
-3 interrupted.  Input errors are reported before any results directory is created.
+Exit codes: 0 success, 1 run failure (solver, I/O), 2 bad input (scene, --set, arguments; a
+results folder in use by another run, not writable, or holding a finished run or a checkpoint
+without --overwrite/--resume; a damaged checkpoint), 3 interrupted.  Input errors are reported
+before any results directory is created; the folder is then created and probed for writing
+(--dry-run too, which removes what it created).
 NGSolve is imported only when a model is built (never by --dry-run).
 """
 from __future__ import annotations
@@ -56,6 +60,9 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("run", help="static + seismic run of a scene")
     _add_scene_args(p)
     p.add_argument("--resume", action="store_true", help="continue from the last checkpoint")
+    p.add_argument("--overwrite", action="store_true",
+                   help="the results folder may hold a finished run or a checkpoint: replace "
+                        "them (else refused, exit 2)")
     p.add_argument("--dry-run", action="store_true",
                    help="print the resolved scene and what would be built; build nothing")
     p.add_argument("--quiet", action="store_true", help="no progress bar or messages")
@@ -63,6 +70,8 @@ def build_parser() -> argparse.ArgumentParser:
     _add_scene_args(p, "koyna")
     p.add_argument("--quiet", action="store_true")
     p.add_argument("--resume", action="store_true", help="resume unfinished runs")
+    p.add_argument("--overwrite", action="store_true",
+                   help="replace finished runs and checkpoints in the results folders")
     p.add_argument("--dry-run", action="store_true")
     p = sub.add_parser("compare", help="compare finished runs (Fig. 10/11 overlays, table)")
     p.add_argument("dirs", nargs="+", help="results directories (alpha = 2 first)")
@@ -116,12 +125,54 @@ def _dry_run(sc, outdir) -> int:
     return 0
 
 
+def _out_key(out) -> str:
+    return "--out" if out else "output.dir"
+
+
+def _folder_check(outdir, key, resume, overwrite, dry_run):
+    """The results folder before anything is built: created and writable (a probe file; a dry
+    run removes what it created), not in use by another run, and not holding a run that would
+    be lost (run.folder). Returns the folder's lock, held (released at once by a dry run)."""
+    from .run.folder import FolderLock, dry_run_probe, probe_writable, reuse_error
+    if dry_run:
+        if not outdir.is_dir():
+            dry_run_probe(outdir, key)
+            return None
+        probe_writable(outdir, key)
+    else:
+        probe_writable(outdir, key)
+    lock = FolderLock(outdir, key).acquire()
+    try:
+        why = reuse_error(outdir, resume=resume, overwrite=overwrite, key=key)
+        if why is not None:
+            raise ValueError(why)
+    except BaseException:
+        lock.release()
+        raise
+    if dry_run:
+        lock.release()
+        return None
+    return lock
+
+
 def cmd_run(a) -> int:
+    if a.resume and a.overwrite:
+        return _err("--resume and --overwrite: allowed: one of them (continue the checkpoint, "
+                    "or replace what the folder holds)")
     try:
         sc = _load(a.scene, a.overrides)
         outdir = _outdir(a.out, sc)
-        if a.resume and sc.kind == "koyna":
-            _resume_check(sc, outdir)
+        if sc.kind == "koyna":
+            from .setup import validate
+            validate(sc)              # input errors first: nothing created for a bad scene
+            lock = _folder_check(outdir, _out_key(a.out), a.resume, a.overwrite, a.dry_run)
+            if a.resume:
+                try:
+                    _resume_check(sc, outdir)
+                except BaseException:
+                    if lock is not None:
+                        lock.release()
+                    raise
     except ValueError as e:
         return _err(str(e))
     if a.dry_run:
@@ -131,15 +182,21 @@ def cmd_run(a) -> int:
             return _err(f"--resume: scenes of kind {sc.kind!r} are short and not checkpointed; "
                         "allowed: --resume with kind 'koyna'")
         return _run_other(sc, outdir, not a.quiet)
-    return _run_one(sc, outdir, a.resume, not a.quiet)
+    try:                              # the folder's lock held from the checks to the end
+        return _run_one(sc, outdir, a.resume, not a.quiet, a.overwrite, _out_key(a.out))
+    finally:
+        lock.release()
 
 
 def _resume_check(sc, outdir):
-    """--resume (also with --dry-run): a checkpoint in outdir written for this scene; the
-    ValueError names the first key that differs."""
-    if not (outdir / "checkpoint.json").exists():
-        raise ValueError(f"--resume: no checkpoint in {outdir}; allowed: the results directory "
-                         "of an interrupted run with output.checkpoint_every > 0")
+    """--resume (also with --dry-run): a readable checkpoint in outdir written for this scene
+    (the output keys may differ); the ValueError names the first key that differs, or the
+    damaged checkpoint."""
+    if not any((outdir / f).exists() for f in ("checkpoint.json", "checkpoint.prev.json")):
+        done = " (it holds a finished run: summary.json)" if (outdir / "summary.json").exists() \
+            else ""
+        raise ValueError(f"--resume: no checkpoint in {outdir}{done}; allowed: the results "
+                         "directory of an interrupted run with output.checkpoint_every > 0")
     from .run.checkpoint import checkpoint_scene_difference
     diff = checkpoint_scene_difference(sc, outdir)
     if diff is not None:
@@ -164,15 +221,17 @@ def _run_other(sc, outdir, progress) -> int:
     return 0
 
 
-def _run_one(sc, outdir, resume, progress) -> int:
+def _run_one(sc, outdir, resume, progress, overwrite=False, out_key="--out") -> int:
     from .apps.dam import run
     try:
-        run(sc, outdir, resume=resume, progress=progress)
+        run(sc, outdir, resume=resume, progress=progress, overwrite=overwrite, out_key=out_key)
     except KeyboardInterrupt:
         print(f"\ninterrupted; continue with --resume (results dir {outdir})", file=sys.stderr)
         return 3
     except (ValueError, FileNotFoundError) as e:
         return _err(str(e))
+    except OSError as e:               # the disk (full, removed) during the run
+        return _err(f"run failed: {e}", 1)
     except RuntimeError as e:          # SolverError and friends
         return _err(f"run failed: {e}", 1)
     return 0
@@ -183,6 +242,8 @@ def paper_dirs(base: pathlib.Path) -> dict:
 
 
 def cmd_run_paper(a) -> int:
+    if a.resume and a.overwrite:
+        return _err("--resume and --overwrite: allowed: one of them")
     scenes = {}
     try:
         base = _outdir(a.out or "results")
@@ -193,6 +254,16 @@ def cmd_run_paper(a) -> int:
     kind = next(iter(scenes.values()))[0].kind
     if kind != "koyna":
         return _err(f"run-paper: scene {a.scene!r} is of kind {kind!r}; allowed: a koyna scene")
+    try:
+        for lab, (sc, d) in scenes.items():
+            resume = a.resume and (d / "checkpoint.json").exists() \
+                and not (d / "summary.json").exists()
+            if not (a.resume and (d / "summary.json").exists()):
+                lock = _folder_check(d, "--out", resume, a.overwrite, a.dry_run)
+                if lock is not None:       # each run takes its own when it starts
+                    lock.release()
+    except ValueError as e:
+        return _err(str(e))
     if a.dry_run:
         for lab, (sc, d) in scenes.items():
             print(f"# {lab}")
@@ -205,7 +276,7 @@ def cmd_run_paper(a) -> int:
         if a.resume and (d / "summary.json").exists():
             print(f"{lab}: {d} is complete, not rerun")
             continue
-        rc = _run_one(sc, d, resume, not a.quiet)
+        rc = _run_one(sc, d, resume, not a.quiet, a.overwrite)
         if rc:
             return rc
         gc.collect()        # the first run's model and factors are freed before the second

@@ -197,6 +197,32 @@ SCENES = [
     (["solver.pairing_tolerance=0"], r"solver.pairing_tolerance = 0.0: out of range"),
     (["ground_motion.record='pulse:square:0.5:0.4'"],
      r"ground_motion.record = 'pulse:square:0.5:0.4': not a pulse; allowed: 'pulse:<shape>"),
+    # physical sanity at --dry-run (issue 33; setup/sanity.py, docs/solver.md §8.7)
+    (["interface.contact_stiffness=1e5"],
+     r"interface.contact_stiffness = 100000.0 Pa/m: under the dam's weight .*overlap by "
+     r"12.57 m, more than 1 % of its smallest element \(0.1 m\).*allowed: >= 1.26e\+09 Pa/m \(the "
+     r"bond's own stiffness"),
+    (["interface.contact_stiffness=1"], r"interface.contact_stiffness = 1.0 Pa/m: .*overlap by "
+                                        r"1.257e\+06 m"),
+    (["joints=[{name='neck', elevation=66.5, contact_stiffness=1e6}]"],
+     r"joints\[0\].contact_stiffness = 1000000.0 Pa/m: .* on the joint 'neck'"),
+    (["joints=[{name='low', elevation=0.001}]"],
+     r"joints\[0\].elevation = 0.001 \(joint 'low'\): 0.001 m above the base, closer than the "
+     r"element size there \(0.1 m"),
+    (["joints=[{name='a', elevation=40.0}, {name='b', elevation=40.05}]"],
+     r"joints\[1\].elevation = 40.05 \(joint 'b'\): 0.05 m above joint 'a' \(joints\[0\]\)"),
+    (["joints=[{name='top', elevation=102.95}]"],
+     r"joints\[0\].elevation = 102.95 \(joint 'top'\): 0.05 m below the crest"),
+    (["uplift.model=linear", "uplift.drain_x=7"],
+     r"uplift.drain_x = 7.0 with uplift.model = 'linear': the drain line is read only by "
+     r"model = 'drains'"),
+    (["uplift.drain_x=7"], r"uplift.drain_x = 7.0 with uplift.model = 'none'"),
+    (["ground_motion.scale=0"], r"ground_motion.scale = 0.0: the record scaled to nothing"),
+    (["materials.dam.E=5e-324"], r"materials.dam.E = 5e-324: softer than any soil a dam stands "
+                                 r"on; allowed: >= 1e\+06 Pa"),
+    (["materials.rock.rho=1e-3"], r"materials.rock.rho = 0.001: lighter than air; allowed: >= 1 "),
+    (["materials.dam.nu=0.4999999"], r"materials.dam.nu = 0.4999999: nearly incompressible: the "
+                                     r"elements lock; allowed: <= 0.49"),
     (["ground_motion.record='pulse:sine:0.5:-1'"],
      r"ground_motion.record = 'pulse:sine:0.5:-1': out of range; allowed: \|peak\| <= 10 g, "
      r"period > 0 s"),
@@ -291,11 +317,13 @@ def test_ida_out_that_is_a_file(tmp_path):
 def test_resume_with_another_scene_names_the_key(tmp_path, capsys):
     """--resume (with --dry-run too) against a checkpoint of another scene: exit 2 naming the
     first key that differs, with both values."""
-    import json
+    from ngs_driver.run.checkpoint import Checkpointer
     d = tmp_path / "r"
     d.mkdir()
     scene = load_scene("koyna_smoke").to_dict()
-    (d / "checkpoint.json").write_text(json.dumps({"scene": scene, "step": 10}))
+    ck = Checkpointer(d, 10)
+    ck.save(10, {"scene": scene}, u=np.zeros(3))
+    ck.wait()
     rc, out, err = _dry(["run", "koyna_smoke", "--resume", "--dry-run", "--out", str(d),
                          "--set", "interface.alpha=1"], capsys)
     assert rc == 2 and "interface.alpha = 2.0 in the checkpoint, 1.0 now" in err, err

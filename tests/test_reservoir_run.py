@@ -113,8 +113,9 @@ def test_compressible_run_tends_to_the_incompressible_run(tmp_path, sides):
 
 def test_resume_with_compressible_water_is_exact(tmp_path):
     """Killed after 12 steps (checkpoint at 10) and resumed: the water state and the pressure
-    history come back from reservoir_state_*.npz, and the pressure CSV and the final
-    displacement equal those of an uninterrupted run (bitwise: same operations)."""
+    history come back from the run's checkpoint (one set with the solver's state,
+    run/checkpoint.py), and the pressure CSV and the final displacement equal those of an
+    uninterrupted run (bitwise: same operations)."""
     from ngs_driver.apps.dam import RunInterrupted, run
 
     sets = ["reservoir.model=acoustic", "time.duration=0.04", "output.checkpoint_every=10"]
@@ -122,7 +123,10 @@ def test_resume_with_compressible_water_is_exact(tmp_path):
     run(sc, tmp_path / "a", progress=False, plots=False)
     with pytest.raises(RunInterrupted):
         run(sc, tmp_path / "b", progress=False, plots=False, max_steps=12)
-    assert (tmp_path / "b" / "reservoir_state_0000010.npz").exists()
+    with np.load(tmp_path / "b" / "checkpoint_0000010.npz") as z:
+        assert len(z["reservoir_rows_t"]) == 10
+        assert any(k.startswith("reservoir_fluid_") for k in z.files)   # compressible water
+    assert not list((tmp_path / "b").glob("reservoir_state_*.npz"))
     run(sc, tmp_path / "b", resume=True, progress=False, plots=False)
     ca = (tmp_path / "a" / "reservoir_pressure.csv").read_text()
     cb = (tmp_path / "b" / "reservoir_pressure.csv").read_text()
@@ -130,22 +134,24 @@ def test_resume_with_compressible_water_is_exact(tmp_path):
     ua = np.load(tmp_path / "a" / "final_state.npz")["u"]
     ub = np.load(tmp_path / "b" / "final_state.npz")["u"]
     assert np.array_equal(ua, ub)
-    assert not list((tmp_path / "b").glob("reservoir_state_*.npz"))
+    assert not list((tmp_path / "b").glob("checkpoint*"))
 
 
 def test_reservoir_state_of_the_previous_checkpoint_kept(tmp_path):
-    """The water state of step k is saved before checkpoint.json commits step k (written in
-    the background): the previous checkpoint's state stays until the next save, so a run
-    stopped in between can resume from the previous step."""
+    """The water state of step k is in checkpoint k's set; the previous set stays until the
+    next one is committed, so a run stopped in between resumes from the previous step."""
     from ngs_driver.apps.dam import RunInterrupted, run
 
     sets = ["reservoir.model=acoustic", "time.duration=0.08", "output.checkpoint_every=10"]
     sc = load_scene("koyna_smoke", sets)
     with pytest.raises(RunInterrupted):
         run(sc, tmp_path, progress=False, plots=False, max_steps=22)
-    assert sorted(p.name for p in tmp_path.glob("reservoir_state_*.npz")) == [
-        "reservoir_state_0000010.npz", "reservoir_state_0000020.npz"]
+    assert sorted(p.name for p in tmp_path.glob("checkpoint_*.npz")) == [
+        "checkpoint_0000010.npz", "checkpoint_0000020.npz"]
     with pytest.raises(RunInterrupted):
         run(sc, tmp_path, resume=True, progress=False, plots=False, max_steps=10)
-    assert sorted(p.name for p in tmp_path.glob("reservoir_state_*.npz")) == [
-        "reservoir_state_0000020.npz", "reservoir_state_0000030.npz"]
+    assert sorted(p.name for p in tmp_path.glob("checkpoint_*.npz")) == [
+        "checkpoint_0000020.npz", "checkpoint_0000030.npz"]
+    for k in (20, 30):
+        with np.load(tmp_path / f"checkpoint_{k:07d}.npz") as z:
+            assert len(z["reservoir_rows_t"]) == k       # the pressure history to step k

@@ -2,6 +2,8 @@
 the products it takes anyway, the skipped size-scale update, the history buffer. No NGSolve."""
 from types import SimpleNamespace
 
+import json
+
 import numpy as np
 import pytest
 import scipy.sparse as sp
@@ -308,8 +310,16 @@ def test_checkpoints_written_in_the_background_in_order(tmp_path):
     m, arrs = ck.load()                          # waits for the writer
     assert m["step"] == 500 and m["arrays"] == "checkpoint_0000500.npz"
     assert np.array_equal(arrs["u"], -np.ones(5))
-    assert sorted(p.name for p in tmp_path.iterdir()) == ["checkpoint.json",
-                                                          "checkpoint_0000500.npz"]
+    # the previous set stays until the next one is committed (a damaged newest falls back)
+    assert sorted(p.name for p in tmp_path.iterdir()) == [
+        "checkpoint.json", "checkpoint.prev.json", "checkpoint_0000250.npz",
+        "checkpoint_0000500.npz"]
+    ck.save(750, {"time": 1.5}, u=u)
+    ck.wait()
+    assert sorted(p.name for p in tmp_path.iterdir()) == [
+        "checkpoint.json", "checkpoint.prev.json", "checkpoint_0000500.npz",
+        "checkpoint_0000750.npz"]
+    assert json.loads((tmp_path / "checkpoint.prev.json").read_text())["step"] == 500
     ck2 = Checkpointer(tmp_path / "a", 1)
     v, meta = np.arange(3.0), {"time": 0.0}
     ck2.save(1, meta, v=v)

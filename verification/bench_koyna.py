@@ -174,7 +174,7 @@ def variant(s, method="condensed"):
 def short_run(model, sc, outdir) -> dict:
     from ngs_driver.post.files import read_csv
     from ngs_driver.apps.dam import run
-    s = run(sc, outdir, model=model, plots=False, progress=False)
+    s = run(sc, outdir, model=model, plots=False, progress=False, overwrite=True)
     ts = read_csv(pathlib.Path(outdir) / "timeseries.csv")
     w = np.asarray(ts["wall"])
     return {"per_step_median": float(np.median(w)), "per_step_mean": float(np.mean(w)),

@@ -31,7 +31,7 @@ LINEAR = ["ground_motion.scale=0.001", "interface.damage=false"]
 def _one(sets, outdir):
     sc = load_scene("koyna_smoke", sets + ["output.checkpoint_every=0"])
     t0 = time.perf_counter()
-    s = run(sc, outdir, progress=False, plots=False)
+    s = run(sc, outdir, progress=False, plots=False, overwrite=True)   # make verify reruns
     wall = time.perf_counter() - t0
     e = s["energy"]
     return {"dt": sc.time.dt, "residual": e["max_residual_over_input_work"],

@@ -127,7 +127,7 @@ def cost(lines, fast, n_steps=None):
         md = build_from_scene(sc)
         tb = time.perf_counter() - t
         a = prepare(sc, scratch / m, model=md, progress=False, outputs=RunOutputs(plots=False),
-                    log=lambda *x, **k: None)
+                    log=lambda *x, **k: None, overwrite=True)
         a.static()
         npd = md.reservoir.info.get("n_pressure_dofs", 0) if md.reservoir else 0
         runs[m] = dict(s=a.solver, f=lambda k, a=a: seismic_load(a.f_static, a.Mrx, a.Mry,

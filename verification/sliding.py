@@ -92,7 +92,7 @@ def run_case(sets, outdir):
     from ngs_driver.scene import load_scene
     sc = load_scene("sliding_block", list(sets) + ["output.checkpoint_every=0"])
     t0 = time.perf_counter()
-    s = run(sc, outdir, progress=False, plots=False)
+    s = run(sc, outdir, progress=False, plots=False, overwrite=True)   # make verify reruns
     s["_wall"] = time.perf_counter() - t0
     return read_csv(pathlib.Path(outdir) / "timeseries.csv"), s, sc
 

@@ -151,7 +151,7 @@ def run_one(scene_name, sets, dt, outdir) -> dict:
     from ngs_driver.scene import load_scene
     sc = load_scene(scene_name, list(sets) + [f"time.dt={dt!r}"])
     t0 = time.perf_counter()
-    a = prepare(sc, outdir, progress=False, outputs=RunOutputs(plots=False))
+    a = prepare(sc, outdir, progress=False, outputs=RunOutputs(plots=False), overwrite=True)
     a.static()
     log = SubstepLog(a)
     try:

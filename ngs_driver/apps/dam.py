@@ -17,12 +17,15 @@ class RunInterrupted(RuntimeError):
 
 def run(scene, outdir=None, resume: bool = False, progress: bool = True,
         max_steps: int | None = None, model=None, plots: bool = True,
-        log=print) -> dict:
+        log=print, overwrite: bool = False, out_key: str | None = None) -> dict:
     """Run the scene; returns the summary dict (also written to ``outdir/summary.json``).
 
     max_steps: stop (``RunInterrupted``) after this many dynamic steps of this call, with the
     checkpoint written if one is due (test hook for stop/resume).  model: a prebuilt model
-    of this scene (tests).  plots: False skips PNG/VTK output (tests)."""
+    of this scene (tests).  plots: False skips PNG/VTK output (tests).  overwrite: the folder
+    may hold a finished run or a checkpoint, replaced by this run (``run.analysis.prepare``);
+    out_key: the name of ``outdir`` in messages. The folder's lock is released when the run
+    ends, however it ends."""
     # Python's full garbage collections scan every object alive (numba, NGSolve, the model:
     # ~0.1-0.2 s each, a few per run while matplotlib imports and draws): the objects that
     # exist when the time loop starts are moved out of their reach (gc.freeze) and given back
@@ -30,19 +33,28 @@ def run(scene, outdir=None, resume: bool = False, progress: bool = True,
     mine = gc.get_freeze_count() == 0
     try:
         a = prepare(scene, outdir, resume=resume, progress=progress,
-                    outputs=RunOutputs(plots=plots), model=model, log=log)
-        a.static()
-        if mine:
-            gc.freeze()
+                    outputs=RunOutputs(plots=plots), model=model, log=log,
+                    overwrite=overwrite, out_key=out_key)
         try:
-            n = 0
-            while a.step():
-                n += 1
-                if max_steps is not None and n >= max_steps:
-                    raise RunInterrupted(f"stopped after {n} steps (step {a.k}) by max_steps")
+            return _run(a, mine, max_steps)
         finally:
-            a.close()
-        return a.finish()
+            a.release()
     finally:
         if mine:
             gc.unfreeze()
+
+
+def _run(a, mine, max_steps):
+    """static, the steps, finish: the run after ``prepare``."""
+    a.static()
+    if mine:
+        gc.freeze()
+    try:
+        n = 0
+        while a.step():
+            n += 1
+            if max_steps is not None and n >= max_steps:
+                raise RunInterrupted(f"stopped after {n} steps (step {a.k}) by max_steps")
+    finally:
+        a.close()
+    return a.finish()

@@ -7,6 +7,7 @@ from pathlib import Path
 
 from ..fe.modal import damping_from_modes, k0_from_scene, modal_analysis
 from ..post.modal import write_frequency_response, write_modal_json
+from ..run.damping import modes_to_compute
 from ..run.joints import Joints
 from ..solve.joint_laws import initial_stiffness
 
@@ -22,7 +23,7 @@ def run_modal(scene, out_dir=None, n_modes: int = 6, model=None):
     kn, kt = k0_from_scene(scene)
     # each joint with its own initial stiffness (the base's alone without lift joints)
     k0 = initial_stiffness(Joints(scene, md.interface).solver_law(), md.interface.npts)
-    res = modal_analysis(md, n_modes, k0[:, 0], k0[:, 1])
+    res = modal_analysis(md, modes_to_compute(scene, n_modes), k0[:, 0], k0[:, 1])
     d = scene.damping
     damp = damping_from_modes(res, d.ratio, d.modes, d.frequencies or None, d.model)
     out = Path(out_dir if out_dir is not None else scene.output.dir)

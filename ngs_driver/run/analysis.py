@@ -24,15 +24,17 @@ solver's work, each joint's measures, its sliding safety and the energy budget
 (``run.energy``) in the history (``run.history``).
 
 Files: the run writes its own -- summary.json (last, atomically), final_state.npz,
-checkpoint.json/.npz every ``output.checkpoint_every`` steps (``resume=True`` continues from
-the last checkpoint and gives the same results as an uninterrupted run). The output stage
+checkpoint.json + checkpoint_<step>.npz every ``output.checkpoint_every`` steps, one set
+committed at once with the previous one kept (``run.checkpoint``; ``resume=True`` continues
+from the last checkpoint and gives the same results as an uninterrupted run). The folder is
+locked for the run and a finished run or a checkpoint in it is replaced only when asked
+(``overwrite``; ``run.folder``). The output stage
 writes the rest through the ``outputs`` object ``prepare`` is given (``run.outputs``; the
 standard one is ``post.RunOutputs``: timeseries.csv, damage_profiles[_<joint>].csv, results.md,
 PNGs, optional VTK); ``apps.dam.run`` is the whole run with those.
 """
 from __future__ import annotations
 
-import json
 import pathlib
 import time
 
@@ -43,10 +45,12 @@ from .store import atomic_savez, atomic_write_json, environment_info
 from ..setup import FORMULATION, characteristic_times, law_parts, validate, window_note
 from ..solve.joint_laws import initial_stiffness, law_stiffness
 from . import summary as sm
-from .checkpoint import (Checkpointer, interface_state, restore_solver_arrays, scene_difference,
+from .checkpoint import (Checkpointer, interface_state, restore_solver_arrays, resume_difference,
                          solver_arrays)
-from .damping import damping_matrix, low_rank_damping, rayleigh_damping
+from .damping import damping_matrix, low_rank_damping, modes_to_compute, rayleigh_damping
 from .energy import EnergyBudget
+from .folder import (FolderError, FolderLock, clean_temporaries, finished_files, probe_writable,
+                     reuse_error)
 from .history import HIST_KEYS, History, Snapshots, results_from_history
 from .joints import Joints
 from .outputs import Outputs
@@ -86,8 +90,8 @@ def make_solver(scene, model, C, law, C_lowrank=None):
 def _restart(scene, out, ckp, scene_d):
     """(meta, arrays) of the checkpoint in ``out``; ValueError naming the first key whose
     value differs when the checkpoint was written for another scene."""
-    meta, arrs = ckp.load()          # FileNotFoundError with a clear message
-    diff = scene_difference(meta.get("scene") or {}, json.loads(json.dumps(scene_d)))
+    meta, arrs = ckp.load()          # FileNotFoundError / CheckpointDamaged, clear messages
+    diff = resume_difference(meta.get("scene") or {}, scene_d)
     if diff is not None:
         raise ValueError(f"--resume: the checkpoint in {out} was written for a different "
                          f"scene: {diff}; allowed: the same scene and overrides as the "
@@ -102,7 +106,9 @@ class Analysis:
     ``solver``, ``modal``, ``damping`` (the Rayleigh dict), ``gm`` (the ground motion),
     ``times``, ``n_steps``, ``k`` (steps done), ``history``, ``snapshots``, ``energy``,
     ``uplift``, ``safety``, ``screening``, ``absorbing``, ``reservoir``, ``stopped`` (None
-    or the stop rule's entry), ``static_info``."""
+    or the stop rule's entry), ``static_info``, ``lock`` (the results folder's
+    ``run.folder.FolderLock``, released by ``finish`` or ``release()``), ``previous_files``
+    (the files of the finished run this one replaces, or None)."""
 
     def __init__(self, scene, out, gm, model, checkpoints, restart, *, progress, outputs, log,
                  t0, t_build):
@@ -114,6 +120,8 @@ class Analysis:
         self._t0 = t0
         self.scene_d = scene.to_dict()
         self.checkpoints = checkpoints
+        self.lock = None                  # the results folder's lock (``prepare``)
+        self.previous_files = None        # the files of a finished run this one replaces
         self._restart = restart
         resume = restart is not None
         self.timings = {"build": t_build}
@@ -146,7 +154,8 @@ class Analysis:
         # ---- modal analysis, damping, solver ---------------------------------------------------
         t = time.perf_counter()
         k0p = initial_stiffness(joints.solver_law(), iface.npts)    # each joint its own k0
-        self.modal = modal_analysis(self._modal_model(), 6, k0p[:, 0], k0p[:, 1])
+        self.modal = modal_analysis(self._modal_model(), modes_to_compute(scene), k0p[:, 0],
+                                    k0p[:, 1])
         self.damping = rayleigh_damping(self.modal, scene,
                                         None if self._restart is None else self._restart[0])
         self.timings["modal"] = time.perf_counter() - t
@@ -174,7 +183,7 @@ class Analysis:
             from .reservoir import ReservoirRun
             Mrx, Mry = model.reservoir.seismic_vectors(Mrx, Mry)
             self.reservoir = ReservoirRun.create(model, scene, solver, self.times, self.ax,
-                                                 self.ay, resume, out)
+                                                 self.ay, restart, out)
         self.f_base = model.f_gravity + model.f_water + (np.zeros(model.nfree) if f_tail is None
                                                          else f_tail)
         if self.absorbing is not None:       # total displacements: the record enters as
@@ -456,6 +465,8 @@ class Analysis:
                   **self.pairing.state(), "joints_static_motion": self.joints.static_motion}
         if self.screening is not None:
             arrays.update(self.screening.checkpoint_arrays())
+        if self.reservoir is not None:             # the water state, in the same set
+            arrays.update(self.reservoir.checkpoint_arrays())
         arrays.update({f"hist_{kk}": vv for kk, vv in self.history.arrays().items()})
         arrays.update(self.snapshots.arrays())
         self.checkpoints.save(k, {"scene": self.scene_d, "time": solver.time,
@@ -497,16 +508,28 @@ class Analysis:
         files.extend(self.outputs.safety(self, H, post, safety_sum))
         summary = self._summary(H, post, safety_sum, files)
         atomic_write_json(out / "summary.json", summary)     # LAST: the run is complete
-        for p in [self.checkpoints.meta_path, *out.glob("checkpoint_*.npz")]:
-            if p.exists():                                    # nothing left to resume
+        self.checkpoints.remove_all()                         # nothing left to resume
+        for f in set(self.previous_files or ()) - set(files) - {"summary.json"}:
+            p = out / f                   # the replaced run's files this run did not write
+            if p.parent == out and p.is_file():
                 p.unlink()
+        self.release()
         text = self.outputs.report(summary) if self.progress else None
         if text:
             self.log(text)
         return summary
 
+    def release(self) -> None:
+        """The results folder's lock released (``finish`` does it; a caller that stops early
+        may, or the process's end does)."""
+        if self.lock is not None:
+            self.lock.release()
+
     def _write_outputs(self, H) -> list[str]:
         solver, out, iface = self.solver, self.out, self.model.interface
+        # the finished run this one replaces (--overwrite, or resumed after one) stops looking
+        # finished before the first of its files is replaced: its summary.json goes first
+        (out / "summary.json").unlink(missing_ok=True)
         files = list(self.outputs.results(self, H))
         atomic_savez(out / "final_state.npz", u=solver.u, v=solver.v, a=solver.a,
                      x=iface.x, y=iface.y, w=iface.w,
@@ -565,11 +588,18 @@ class Analysis:
 
 
 def prepare(scene, outdir=None, *, resume: bool = False, progress: bool = True,
-            outputs=None, model=None, log=print, plots=None) -> Analysis:
+            outputs=None, model=None, log=print, plots=None, overwrite: bool = False,
+            out_key: str | None = None) -> Analysis:
     """Everything a run of ``scene`` needs, built and checked; nothing solved yet.
 
-    outdir: the results folder (default ``scene.output.dir``); resume: continue from its last
-    checkpoint (ValueError naming the key when the scene differs from the checkpoint's);
+    outdir: the results folder (default ``scene.output.dir``), created and probed for writing,
+    then locked for this run (``run.folder``: a second run into it is refused naming this
+    process); resume: continue from its last checkpoint (ValueError naming the key when the
+    scene differs from the checkpoint's, or naming the damaged checkpoint); overwrite: a
+    folder that holds a finished run or a checkpoint may be used (else refused: nothing is
+    deleted unasked), its checkpoints removed now, its results replaced when this run
+    finishes (a run that fails leaves them as they were); out_key: the name of ``outdir`` in
+    messages (the command line's ``--out``);
     progress: a progress bar and log lines through ``log``; outputs: what the output stage
     writes (``run.outputs.Outputs``; ``post.RunOutputs()`` the standard files; None: only
     the run's own files, summary.json, final_state.npz and the checkpoints); model: a
@@ -580,25 +610,32 @@ def prepare(scene, outdir=None, *, resume: bool = False, progress: bool = True,
                         f"outputs=ngs_driver.post.outputs.RunOutputs(plots={plots!r})")
     t0 = time.perf_counter()
     gm = validate(scene)                      # nothing is written for a bad scene
+    key = out_key or ("outdir" if outdir is not None else "output.dir")
     out = pathlib.Path(outdir if outdir is not None else scene.output.dir)
-    if out.exists() and not out.is_dir():
-        raise ValueError(f"{'outdir' if outdir is not None else 'output.dir'} = {str(out)!r}: "
-                         "is an existing file; allowed: a folder (new or existing)")
-    checkpoints = Checkpointer(out, scene.output.checkpoint_every)
-    restart = _restart(scene, out, checkpoints, scene.to_dict()) if resume else None
-    out.mkdir(parents=True, exist_ok=True)
-    stale = [out / "summary.json"]
-    if not resume:
-        stale += [checkpoints.meta_path, *out.glob("checkpoint_*.npz")]
-    for p in stale:                           # nothing of a previous run may look complete
-        if p.exists():
-            p.unlink()
-    t = time.perf_counter()
-    if model is None:
-        from ..fe.model import build_from_scene
-        model = build_from_scene(scene)
-    t_build = time.perf_counter() - t
-    a = Analysis(scene, out, gm, model, checkpoints, restart, progress=progress,
-                 outputs=outputs, log=log, t0=t0, t_build=t_build)
-    a.outputs.start(a)
+    probe_writable(out, key)                  # created and writable before any work
+    lock = FolderLock(out, key).acquire()     # one run per folder (docs/solver.md §8.5)
+    try:
+        why = reuse_error(out, resume=resume, overwrite=overwrite, key=key)
+        if why is not None:
+            raise FolderError(why)
+        checkpoints = Checkpointer(out, scene.output.checkpoint_every)
+        restart = _restart(scene, out, checkpoints, scene.to_dict()) if resume else None
+        for note in checkpoints.notes:        # a damaged newest checkpoint passed over
+            log(f"[{scene.name}] warning: {note}")
+        clean_temporaries(out)                # a killed run's half-written files
+        previous = finished_files(out)
+        if overwrite and not resume:          # asked for: the old checkpoints go now, the
+            checkpoints.remove_all()          # finished run's files at the end (finish)
+        t = time.perf_counter()
+        if model is None:
+            from ..fe.model import build_from_scene
+            model = build_from_scene(scene)
+        t_build = time.perf_counter() - t
+        a = Analysis(scene, out, gm, model, checkpoints, restart, progress=progress,
+                     outputs=outputs, log=log, t0=t0, t_build=t_build)
+        a.lock, a.previous_files = lock, previous
+        a.outputs.start(a)
+    except BaseException:
+        lock.release()
+        raise
     return a

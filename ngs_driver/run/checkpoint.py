@@ -1,10 +1,15 @@
-"""Checkpoints of a run: arrays + meta written atomically, the meta last (the commit point);
+"""Checkpoints of a run: arrays + manifest written atomically, the manifest last (the commit
+point), the previous checkpoint kept until the next one is committed;
 and the copy of a solver's committed state that a checkpoint or a repeated solve needs."""
 from __future__ import annotations
 
+import hashlib
+import io
 import json
 import pathlib
 import threading
+import zipfile
+import zlib
 
 import numpy as np
 
@@ -53,11 +58,33 @@ def scene_difference(have, want, path="") -> str | None:
     return f"{path or 'scene'} = {have!r} in the checkpoint, {want!r} now"
 
 
+# keys that may change on --resume: they change where and how often files are written, not a
+# number of the results (output.snapshots does: the D(x) profiles' times; it must stay)
+RESUME_FREE = ("output.dir", "output.checkpoint_every", "output.vtk_every")
+
+
+def _resumable(d: dict) -> dict:
+    """The scene dict without the keys ``RESUME_FREE``."""
+    d = dict(d)
+    for key in RESUME_FREE:
+        sec, name = key.split(".")
+        if isinstance(d.get(sec), dict):
+            d[sec] = {k: v for k, v in d[sec].items() if k != name}
+    return d
+
+
+def resume_difference(have: dict, want: dict) -> str | None:
+    """``scene_difference`` of two scene dicts on the keys that change results (all but
+    ``RESUME_FREE``)."""
+    return scene_difference(_resumable(have), _resumable(json.loads(json.dumps(want))))
+
+
 def checkpoint_scene_difference(scene, directory) -> str | None:
     """The first key in which ``scene`` differs from the scene of the checkpoint in
-    ``directory`` (``scene_difference``), or None."""
-    meta = json.loads((pathlib.Path(directory) / "checkpoint.json").read_text())
-    return scene_difference(meta.get("scene") or {}, json.loads(json.dumps(scene.to_dict())))
+    ``directory`` that a resume would use (``resume_difference``), or None. CheckpointDamaged
+    when no checkpoint there can be read."""
+    meta, _ = Checkpointer(directory, 0).load()
+    return resume_difference(meta.get("scene") or {}, scene.to_dict())
 
 
 def interface_state(arrs):
@@ -76,12 +103,30 @@ def restore_solver_arrays(solver, arrs, time: float) -> None:
     solver.time = float(time)
 
 
-class Checkpointer:
-    """Writes ``checkpoint.npz`` (arrays) + ``checkpoint.json`` (meta) atomically.
+class CheckpointDamaged(ValueError):
+    """No checkpoint in the folder can be read: the message names the damaged one(s)."""
 
-    The npz is written first under a step-stamped name, then the json that names it: the json
-    is the commit point, so a kill between the two leaves the previous checkpoint valid.
+
+def _sha256(data: bytes) -> str:
+    return hashlib.sha256(data).hexdigest()
+
+
+class Checkpointer:
+    """Checkpoints of a run, each a set committed at once (docs/solver.md §8.5):
+
+    * ``checkpoint_<step>.npz``: every array of the run's state at the step (solver, uplift,
+      water, history), written first;
+    * ``checkpoint.prev.json``: a copy of the manifest of the previous checkpoint, second;
+    * ``checkpoint.json``: the manifest (meta, the npz's name, size and SHA-256), written last:
+      the commit point; then the npz files that neither manifest names are removed.
+
+    A kill at any point leaves ``checkpoint.json`` naming a complete npz (the one before, until
+    the new manifest is on disk), and ``checkpoint.prev.json`` the one before that. ``load``
+    checks the npz against its manifest and, when the newest set is damaged (truncated,
+    emptied, altered), names it and takes the previous one (``notes``).
     """
+
+    PREV = "checkpoint.prev.json"
 
     def __init__(self, directory, every: int):
         if isinstance(every, bool) or not isinstance(every, int) or every < 0:
@@ -91,39 +136,58 @@ class Checkpointer:
         self.every = every
         self._writer = None                 # the thread writing the last checkpoint
         self._error = None
+        self.notes = []                     # what load() found damaged and passed over
 
     @property
     def meta_path(self) -> pathlib.Path:
         return self.dir / "checkpoint.json"
 
+    @property
+    def prev_path(self) -> pathlib.Path:
+        return self.dir / self.PREV
+
+    def files(self) -> list[pathlib.Path]:
+        """Every checkpoint file in the folder (manifests and arrays, committed or not)."""
+        return [p for p in (self.meta_path, self.prev_path) if p.exists()] + sorted(
+            self.dir.glob("checkpoint_*.npz"))
+
+    def remove_all(self) -> None:
+        """No checkpoint left (the run is complete, or the user asked to overwrite)."""
+        self.wait()
+        for p in self.files():
+            p.unlink(missing_ok=True)
+
     def due(self, step: int) -> bool:
         return self.every > 0 and step > 0 and step % self.every == 0
 
     def save(self, step: int, meta: dict, **arrays) -> None:
-        """Serialise the checkpoint now; write it in the background: the npz, then
-        the json that names it (the commit point), then the previous npz removed, in this
-        order in one writer thread, so the time loop does not wait for the disk (write and
+        """Serialise the checkpoint now; write it in the background (the class docstring's
+        order, in one writer thread, so the time loop does not wait for the disk: write and
         fsync, ~10-15 ms per Koyna checkpoint). One write at a time: a save waits for the
         previous one; ``wait()`` before anything reads the directory or the run ends."""
         name = f"checkpoint_{step:07d}.npz"
         data = npz_bytes(**arrays)
-        text = json_text(dict(meta, step=step, arrays=name))
+        text = json_text(dict(meta, step=step, arrays=name, arrays_bytes=len(data),
+                              arrays_sha256=_sha256(data)))
         self.wait()
-        old = self.load_meta()
-        stale = old["arrays"] if old and old.get("arrays") and old["arrays"] != name else None
-        self._writer = threading.Thread(target=self._write, args=(name, data, text, stale),
+        self._writer = threading.Thread(target=self._write, args=(name, data, text),
                                         name=f"checkpoint {step}")
         self._writer.start()
 
-    def _write(self, name, data, text, stale):
+    def _write(self, name, data, text):
         try:
             atomic_write_bytes(self.dir / name, data)
-            atomic_write_text(self.meta_path, text)
-            if stale is not None:
-                try:
-                    (self.dir / stale).unlink()
-                except FileNotFoundError:
-                    pass
+            if self.meta_path.exists():
+                atomic_write_bytes(self.prev_path, self.meta_path.read_bytes())
+            atomic_write_text(self.meta_path, text)          # the commit point
+            keep = {name}
+            try:
+                keep.add(json.loads(self.prev_path.read_text())["arrays"])
+            except (OSError, ValueError, KeyError, TypeError):
+                pass
+            for p in self.dir.glob("checkpoint_*.npz"):
+                if p.name not in keep:
+                    p.unlink(missing_ok=True)
         except BaseException as e:          # re-raised by wait() in the run's thread
             self._error = e
 
@@ -137,16 +201,66 @@ class Checkpointer:
             raise e
 
     def load_meta(self) -> dict | None:
-        if not self.meta_path.exists():
-            return None
-        return json.loads(self.meta_path.read_text())
+        """The newest readable manifest (no arrays read), or None."""
+        for p in (self.meta_path, self.prev_path):
+            try:
+                return json.loads(p.read_text())
+            except (OSError, ValueError):
+                continue
+        return None
+
+    def _read(self, path):
+        """(meta, arrays) of the manifest ``path``; CheckpointDamaged naming what is wrong."""
+        def damaged(step, why):
+            return CheckpointDamaged(f"checkpoint step {step} in {self.dir} is damaged: {why}")
+        try:
+            meta = json.loads(path.read_text())
+            if not isinstance(meta, dict) or "arrays" not in meta or "step" not in meta:
+                raise ValueError("it names no arrays or step")
+        except (ValueError, UnicodeDecodeError) as e:
+            raise CheckpointDamaged(f"checkpoint manifest {path.name} in {self.dir} is damaged:"
+                                    f" not a complete manifest ({e})") from None
+        step = meta["step"]
+        npz = self.dir / str(meta["arrays"])
+        try:
+            data = npz.read_bytes()
+        except OSError as e:
+            raise damaged(step, f"{npz.name} cannot be read ({e.strerror or e})") from None
+        if "arrays_bytes" in meta and len(data) != meta["arrays_bytes"]:
+            raise damaged(step, f"{npz.name} has {len(data)} bytes, its manifest "
+                                f"{meta['arrays_bytes']} (truncated or emptied)")
+        if "arrays_sha256" in meta and _sha256(data) != meta["arrays_sha256"]:
+            raise damaged(step, f"{npz.name} differs from the SHA-256 in its manifest (altered "
+                                "on disk)")
+        try:
+            with np.load(io.BytesIO(data)) as z:
+                arrays = {k: z[k] for k in z.files}
+        except (ValueError, OSError, EOFError, KeyError, zipfile.BadZipFile, zlib.error) as e:
+            raise damaged(step, f"{npz.name} is not a readable npz ({type(e).__name__}: {e})") \
+                from None
+        return meta, arrays
 
     def load(self):
+        """(meta, arrays) of the newest complete checkpoint; FileNotFoundError when there is
+        none, CheckpointDamaged when none can be read. A damaged newest checkpoint passed over
+        for the previous one is said in ``notes``."""
         self.wait()
-        meta = self.load_meta()
-        if meta is None:
+        self.notes = []
+        found = [p for p in (self.meta_path, self.prev_path) if p.exists()]
+        if not found:
             raise FileNotFoundError(f"--resume: no checkpoint in {self.dir}; allowed: a results "
                                     "directory of a run started with output.checkpoint_every > 0")
-        with np.load(self.dir / meta["arrays"]) as z:
-            arrays = {k: z[k] for k in z.files}
-        return meta, arrays
+        errors = []
+        for p in found:
+            try:
+                meta, arrays = self._read(p)
+            except CheckpointDamaged as e:
+                errors.append(str(e))
+                continue
+            self.notes = [f"{e}; resuming from the previous one (step {meta['step']})"
+                          for e in errors]
+            return meta, arrays
+        prev = ("the previous one is damaged too: " + "; ".join(errors[1:]) + "; "
+                if len(errors) > 1 else "no previous one is left; ")
+        raise CheckpointDamaged(f"{errors[0]}; resume from the previous one or rerun without "
+                                f"--resume ({prev}a rerun needs --overwrite to replace it)")

@@ -7,7 +7,17 @@ from __future__ import annotations
 
 from ..fe.modal import damping_from_modes
 
-__all__ = ["rayleigh_damping", "damping_matrix", "low_rank_damping"]
+__all__ = ["rayleigh_damping", "damping_matrix", "low_rank_damping", "modes_to_compute"]
+
+N_MODES = 6        # the modes a run computes (summary.json frequencies_hz) ...
+
+
+def modes_to_compute(scene, n: int = N_MODES) -> int:
+    """... or more, when the damping is set at a higher mode (``damping.modes`` up to 50)."""
+    d = scene.damping
+    if d.frequencies or not d.modes:
+        return n
+    return max(n, max(int(m) for m in d.modes))
 
 
 def rayleigh_damping(modal, scene, restart: dict | None = None) -> dict:

@@ -9,12 +9,9 @@ incompressible water and Westergaard the pressure is recovered from the accelera
 """
 from __future__ import annotations
 
-import json
 import pathlib
 
 import numpy as np
-
-from .store import atomic_savez
 
 __all__ = ["ReservoirRun", "FRACTIONS"]
 
@@ -22,7 +19,7 @@ FRACTIONS = (0.0, 0.25, 0.5, 0.75, 0.9)      # elevations / level at which p is 
 
 
 class ReservoirRun:
-    def __init__(self, model, scene, solver, times, ax, ay, resume=False, out=None):
+    def __init__(self, model, scene, solver, times, ax, ay, restart=None, out=None):
         self.model, self.scene, self.solver = model, scene, solver
         self.res = model.reservoir
         self.times, self.ax, self.ay = times, ax, ay
@@ -34,7 +31,6 @@ class ReservoirRun:
         for y in self.ys:
             self.rows[f"p_y{y:.2f}"] = []
         self.out = None if out is None else pathlib.Path(out)
-        self.every = scene.output.checkpoint_every
         # absorbing rock boundaries: the run is in total displacements (the record enters as
         # free-field forces), so the face's own motion is already in u'' and only the bottom /
         # a rigid far end are driven by a_g
@@ -49,55 +45,51 @@ class ReservoirRun:
         elif self.ac is not None and self.total:
             from ..solve.fluid import GroundPressureLoad
             GroundPressureLoad(self.ac, solver, self.ground)
-        if resume:
-            self._resume()
+        if restart is not None:
+            self._restore(*restart)
         self._pts = self.ac.face_stations(FRACTIONS) if self.ac is not None else None
         self._mips = None
 
     @classmethod
-    def create(cls, model, scene, solver, times, ax, ay, resume=False, out=None):
+    def create(cls, model, scene, solver, times, ax, ay, restart=None, out=None):
+        """restart: (meta, arrays) of the checkpoint a resumed run starts from, else None."""
         if getattr(model, "reservoir", None) is None:
             return None
-        return cls(model, scene, solver, times, ax, ay, resume, out)
+        return cls(model, scene, solver, times, ax, ay, restart, out)
 
-    # -- checkpoints: the water state and the pressure history beside the run's checkpoint ----
-    def _state_path(self, k):
-        return self.out / f"reservoir_state_{k:07d}.npz"
-
-    def _save(self, k):
-        arrs = {f"rows_{key}": np.asarray(v) for key, v in self.rows.items()}
+    # -- checkpoints: the water state and the pressure history, in the run's checkpoint -----
+    def checkpoint_arrays(self) -> dict:
+        """The water state and the sampled pressure history (``reservoir_`` arrays of the
+        run's checkpoint: committed with the rest of the run's state, run/checkpoint.py)."""
+        arrs = {f"reservoir_rows_{key}": np.asarray(v) for key, v in self.rows.items()}
         if self.stepper is not None:
-            arrs.update({f"fluid_{key}": v for key, v in self.stepper.state().items()})
-        atomic_savez(self._state_path(k), **arrs)
-        # the state of the previous checkpoint stays until the next save: this one is saved
-        # before the run's checkpoint.json commits step k (written in the background), and a
-        # run stopped in between resumes from the previous step, which needs its state
-        keep = {self._state_path(k), self._state_path(k - self.every)}
-        for q in self.out.glob("reservoir_state_*.npz"):
-            if q not in keep:
-                q.unlink()
+            arrs.update({f"reservoir_fluid_{key}": v for key, v in self.stepper.state().items()})
+        return arrs
 
-    def _resume(self):
-        if self.out is None:
-            raise ValueError("reservoir: --resume needs the results directory")
-        k = int(json.loads((self.out / "checkpoint.json").read_text())["step"])
-        path = self._state_path(k)
-        if not path.exists():
-            raise ValueError(f"--resume: {path.name} (the reservoir's state at the checkpoint, "
-                             f"step {k}) is missing in {self.out}; allowed: the directory of "
-                             "an interrupted run with the same [reservoir]")
-        d = np.load(path)
+    def _restore(self, meta, arrs):
+        if "reservoir_rows_t" in arrs:
+            pre, d = "reservoir_", arrs
+        else:                        # a checkpoint of an earlier version: its own file
+            k = int(meta["step"])
+            path = None if self.out is None else self.out / f"reservoir_state_{k:07d}.npz"
+            if path is None or not path.exists():
+                raise ValueError(f"--resume: the checkpoint (step {k}) in {self.out} has no "
+                                 "reservoir state (written by an earlier version, its "
+                                 f"reservoir_state_{k:07d}.npz is missing); allowed: rerun "
+                                 "without --resume (--overwrite)")
+            with np.load(path) as z:
+                pre, d = "", {q: z[q] for q in z.files}
         for key in self.rows:
-            self.rows[key] = list(d[f"rows_{key}"])
+            self.rows[key] = list(d[f"{pre}rows_{key}"])
         if self.stepper is not None:
-            self.stepper.restore({k[len("fluid_"):]: d[k] for k in d.files
-                                  if k.startswith("fluid_")})
+            f = f"{pre}fluid_"
+            self.stepper.restore({q[len(f):]: d[q] for q in d if q.startswith(f)})
 
     def clear_checkpoints(self):
-        """The run is complete: nothing is left to resume."""
+        """The run is complete: the water states of earlier versions' checkpoints go too."""
         if self.out is not None:
             for q in self.out.glob("reservoir_state_*.npz"):
-                q.unlink()
+                q.unlink(missing_ok=True)
 
     def ground(self, t):
         """Ground acceleration at time t (linear between the record samples, as the loads)."""
@@ -115,8 +107,7 @@ class ReservoirRun:
         return None
 
     def sample(self, k, t):
-        """After step k (time t): the face pressures and the force, and the reservoir's
-        checkpoint when one is due."""
+        """After step k (time t): the face pressures and the force."""
         s = self.solver
         agx, agy = self.ground(s.time)
         self.rows["t"].append(float(t))
@@ -136,8 +127,6 @@ class ReservoirRun:
         self.rows["Fy"].append(fy)
         for y, v in zip(self.ys, vals):
             self.rows[f"p_y{y:.2f}"].append(float(v))
-        if self.out is not None and self.every > 0 and k > 0 and k % self.every == 0:
-            self._save(k)                       # same schedule as run/checkpoint.py
 
     def _station_values(self, p):
         if getattr(self, "_probe", None) is None:

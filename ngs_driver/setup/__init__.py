@@ -8,6 +8,7 @@ from __future__ import annotations
 
 from .laws import build_law, build_scaling, characteristic_times, law_parts, validate_laws
 from .records import DEFAULT_RECORDS, load_ground_motion
+from .sanity import check_scene
 from .uplift import describe_uplift, validate_safety
 
 __all__ = ["FORMULATION", "build_law", "build_scaling", "characteristic_times", "law_parts",
@@ -26,6 +27,7 @@ def validate(scene):
     profile, the joints and the levels. Returns the loaded ground motion."""
     validate_laws(scene)
     validate_safety(scene)        # uplift, foundation
+    check_scene(scene)            # physical sanity: contact vs weight, joint spacing, unused keys
     try:
         gm = load_ground_motion(scene)
     except (OSError, ValueError, KeyError, IndexError) as e:

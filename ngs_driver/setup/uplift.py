@@ -22,10 +22,21 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["IN_CRACK", "heads", "joint_extent", "pressure_profile", "uplift_force_uncracked",
+__all__ = ["IN_CRACK", "DEFAULT_DRAIN_FRACTION", "drain_line", "heads", "joint_extent", "pressure_profile", "uplift_force_uncracked",
            "validate_safety", "describe_uplift"]
 
 IN_CRACK = ("unchanged", "zero", "full_headwater")
+
+
+# uplift.drain_x = 0 (not given) with model = "drains": the drain line ASSUMED at 10 % of the
+# joint's length from its upstream end (the assumption koyna_engineering.toml states; a review
+# gives its own drains' position)
+DEFAULT_DRAIN_FRACTION = 0.10
+
+
+def drain_line(up, L: float) -> float:
+    """The drain line [m from the upstream end] of an uplift table on a joint of length L."""
+    return float(up.drain_x) if up.drain_x > 0.0 else DEFAULT_DRAIN_FRACTION * float(L)
 
 
 def heads(scene, elevation: float, up) -> tuple[float, float]:
@@ -55,7 +66,7 @@ def pressure_profile(s, L: float, p_head: float, p_tail: float, up, crack: float
     beyond = s > a
     if a >= L:
         return p
-    xd = float(up.drain_x)
+    xd = drain_line(up, L)
     if up.model == "drains" and a < xd < L:
         K = 1.0 - float(up.drain_efficiency)
         pd = p_tail + K * (p_head - p_tail) * (L - xd) / (L - a)
@@ -72,8 +83,8 @@ def uplift_force_uncracked(L: float, p_head: float, p_tail: float, up) -> float:
     """The resultant [N/m] of the uncracked drawing (trapezoids; for describe and checks)."""
     if up.model == "none":
         return 0.0
-    if up.model == "drains" and 0.0 < up.drain_x < L:
-        xd = float(up.drain_x)
+    if up.model == "drains" and 0.0 < drain_line(up, L) < L:
+        xd = drain_line(up, L)
         pd = p_tail + (1.0 - up.drain_efficiency) * (p_head - p_tail) * (L - xd) / L
         return 0.5 * (p_head + pd) * xd + 0.5 * (pd + p_tail) * (L - xd)
     return 0.5 * (p_head + p_tail) * L
@@ -101,7 +112,7 @@ def validate_safety(scene) -> None:
             continue
         _, xu, xd = joint_extent(scene, name)
         L = xd - xu
-        if not (0.0 < up.drain_x < L):
+        if not (0.0 < drain_line(up, L) < L):
             raise ValueError(f"{_key(i, name, 'drain_x')} = {up.drain_x!r}: the drain line is "
                              f"outside the {'base' if name == 'base' else 'joint ' + repr(name)}"
                              f"; allowed: (0, {L:g}) m from its upstream end")

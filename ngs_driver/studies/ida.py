@@ -36,6 +36,7 @@ import time
 
 import numpy as np
 
+from ..run.folder import FolderLock
 from ..setup import fema_records as fema
 from . import sweep
 from .fragility import DEFAULT_LIMIT_STATES, exceedances, fit_lognormal, probability
@@ -275,44 +276,49 @@ def execute(spec: dict, root: str) -> dict:
     if earlier is not None:                     # finished by an earlier attempt
         return earlier
     d.mkdir(parents=True, exist_ok=True)
-    started = d / "started.json"
-    attempts = 1
-    if started.exists():
+    # the worker owns its run's folder from here to its result (run.folder's lock: a second
+    # worker given the same task is refused naming this process; prepare takes it again)
+    with FolderLock(d, "IDA run folder"):
+        started = d / "started.json"
+        attempts = 1
+        if started.exists():
+            try:
+                attempts = int(json.loads(started.read_text()).get("attempt", 0)) + 1
+            except (OSError, ValueError):
+                attempts = 2
+        worker = f"{socket.gethostname()}:{os.getpid()}"
+        atomic_write_json(started, {"attempt": attempts, "pid": os.getpid(),
+                                    "host": socket.gethostname(), "time": time.time()})
+        scene = from_dict(spec["scene"])
+        t0 = time.perf_counter()
+        from ..fe.model import build_from_scene
+        from ..post.outputs import RunOutputs
+        from ..run import prepare
+        model = build_from_scene(scene)
+        base = _base_slice(scene, model)
+        status, message, summary = "ok", None, None
+        # an attempt retried after a dead worker replaces the earlier attempt's files
+        a = prepare(scene, d, progress=False, outputs=RunOutputs(plots=False), model=model,
+                    log=lambda *a, **k: None, overwrite=True)
         try:
-            attempts = int(json.loads(started.read_text()).get("attempt", 0)) + 1
-        except (OSError, ValueError):
-            attempts = 2
-    worker = f"{socket.gethostname()}:{os.getpid()}"
-    atomic_write_json(started, {"attempt": attempts, "pid": os.getpid(),
-                                "host": socket.gethostname(), "time": time.time()})
-    scene = from_dict(spec["scene"])
-    t0 = time.perf_counter()
-    from ..fe.model import build_from_scene
-    from ..post.outputs import RunOutputs
-    from ..run import prepare
-    model = build_from_scene(scene)
-    base = _base_slice(scene, model)
-    status, message, summary = "ok", None, None
-    a = prepare(scene, d, progress=False, outputs=RunOutputs(plots=False), model=model,
-                log=lambda *a, **k: None)
-    try:
-        a.static()
-        while a.step():
-            pass
-    except SolverError as e:                   # physical: recorded, not retried
-        status, message = "failed", str(e)
-    finally:
-        a.close()
-    if status == "ok":
-        summary = a.finish()
-    demands = demand_measures(summary, _probe(a), model, base)
-    result = {k: v for k, v in spec.items() if k != "scene"}
-    result.update({"status": status, "message": message, "demands": demands,
-                   "wall_s": time.perf_counter() - t0, "attempts": attempts,
-                   "worker": worker, "finished": time.time()})
-    if summary is not None:
-        result["ground_motion"] = summary["ground_motion"]
-    return sweep.write_result(d, result)
+            a.static()
+            while a.step():
+                pass
+        except SolverError as e:                   # physical: recorded, not retried
+            status, message = "failed", str(e)
+        finally:
+            a.close()
+            a.release()
+        if status == "ok":
+            summary = a.finish()
+        demands = demand_measures(summary, _probe(a), model, base)
+        result = {k: v for k, v in spec.items() if k != "scene"}
+        result.update({"status": status, "message": message, "demands": demands,
+                       "wall_s": time.perf_counter() - t0, "attempts": attempts,
+                       "worker": worker, "finished": time.time()})
+        if summary is not None:
+            result["ground_motion"] = summary["ground_motion"]
+        return sweep.write_result(d, result)
 
 
 def _worker_info():

@@ -188,7 +188,8 @@ def command(scene: str, overrides, out, python: str = "python") -> list[str]:
     args = [python, "-m", "ngs_driver", "run", str(scene)]
     for ov in overrides:
         args += ["--set", ov]
-    return args + ["--out", str(out), "--quiet"]
+    # a task run again (a retry, a sweep resumed) replaces its own folder's earlier attempt
+    return args + ["--out", str(out), "--quiet", "--overwrite"]
 
 
 def run_scene(spec, root) -> dict:
@@ -206,7 +207,7 @@ def run_scene(spec, root) -> dict:
         from ..apps.dam import run
         from ..scene import load_scene
         run(load_scene(spec["scene_name"], spec["overrides"]), d, progress=False, plots=False,
-            log=lambda *a, **k: None)
+            log=lambda *a, **k: None, overwrite=True)
     else:
         here = pathlib.Path(__file__).resolve().parents[2]
         code = pathlib.Path(spec.get("code") or here)
