@@ -128,12 +128,13 @@ def test_trapezoidal_rule_rattles_generalized_alpha_does_not(res):
     assert ga["E_alg_over_input"] > 0
 
 
-def test_collapse_by_slip_stops_when_the_rigid_block_passes_max_slip(tmp_path):
-    """sliding_block with time.max_slip = 2 cm: the collapse rule stops the run at the first step
-    whose slip passes 2 cm, and the exact rigid block (Newmark 1965, same pulse) passes 2 cm at
+def test_max_slip_stops_undetermined_when_the_rigid_block_passes_it(tmp_path):
+    """sliding_block with time.max_slip = 2 cm: the stop rule stops the run at the first step
+    whose slip passes 2 cm, with the verdict "undetermined" (the model's range left, not a
+    collapse: issue 31), and the exact rigid block (Newmark 1965, same pulse) passes 2 cm at
     t* = 0.26786 s. The stop must fall in [t*, t* + 2 dt]: one step of detection (the rule is
     checked at the step ends) and one for the elastic block's compliance and the trapezoid
-    error (the permanent slip is within 0.1 %, test above). A collapsed run gets no
+    error (the permanent slip is within 0.1 %, test above). A run stopped there gets no
     post-earthquake solve: post_earthquake.skipped, sliding_fs null, criterion not met."""
     from ngs_driver.apps.dam import run
     from ngs_driver.scene import load_scene
@@ -143,8 +144,11 @@ def test_collapse_by_slip_stops_when_the_rigid_block_passes_max_slip(tmp_path):
     t = np.arange(0.0, 0.6, 1e-5)
     rb = rigid_block_slip(t, np.where(t <= T, A * np.sin(np.pi * t / T), 0.0), f, g=g)
     t_star = t[np.argmax(np.abs(rb) >= 0.02)]
-    c = s["collapse"]
+    assert s["collapse"] is None and s["verdict"] == "undetermined"
+    assert s["stopped"]["verdict"] == "undetermined"
+    c = s["undetermined"]
     assert c is not None and c["measure"] == "slip" and c["joint"] == "base"
+    assert "time.max_slip = 0.02 m" in c["range"]
     assert t_star <= c["time"] <= t_star + 2 * sc.time.dt, (c["time"], t_star)
     assert abs(c["value"]) >= 0.02
     pe = s["post_earthquake"]
