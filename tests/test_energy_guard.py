@@ -102,3 +102,56 @@ def test_guard_rejects_a_step_that_creates_energy_and_accepts_one_within_its_lim
     off = EnergyGuard(e_static=1e6, fraction=0.0)   # solver.energy_guard = 0: off
     off.start()
     assert off.check(row(res=-1e9, wext=1.0, wj=1.0), 0.002)[0]
+
+
+def test_a_run_repeats_a_step_the_guard_rejects_and_never_accepts_it(tmp_path, monkeypatch):
+    """A step forced to violate the guard (its check rejects the first attempt of step 5) is
+    repeated from the committed state in 2 sub-steps: the history shows the cut and the two
+    sub-steps, summary.json counts it, and the run's state at step 5 is that of a run whose
+    step 5 is taken in halves from the start (the same sub-steps, bit for bit: nothing of the
+    rejected attempt survives). A guard that rejects every attempt stops the run with a
+    SolverError naming the step: no verdict."""
+    from ngs_driver.apps.dam import run
+    from ngs_driver.run import energy as energy_mod
+    from ngs_driver.scene import load_scene
+    from ngs_driver.solve.newmark import NewmarkSolver, SolverError
+
+    sets = ["time.duration=0.02", "output.checkpoint_every=0"]
+    real = energy_mod.EnergyGuard.check
+    seen = {"n": 0}
+
+    def reject_step5_once(self, row, t):
+        if abs(t - 0.010) < 1e-9 and seen["n"] == 0:
+            seen["n"] += 1
+            self.cuts += 1
+            return False, "forced"
+        return real(self, row, t)
+
+    monkeypatch.setattr(energy_mod.EnergyGuard, "check", reject_step5_once)
+    s = run(load_scene("sliding_block", sets), tmp_path / "a", progress=False, plots=False)
+    assert s["energy"]["guard_cuts"] == 1 and s["verdict"] == "no_collapse"
+    import csv
+    with open(tmp_path / "a" / "timeseries.csv") as fh:
+        rows = [r for r in csv.DictReader(line for line in fh if not line.startswith("#"))]
+    r5 = rows[4]
+    assert float(r5["t"]) == pytest.approx(0.010)
+    assert float(r5["cuts"]) >= 1 and float(r5["substeps"]) == 2
+    a = np.load(tmp_path / "a" / "final_state.npz")["u"]
+
+    # the reference: step 5 taken in halves directly (split=1), no rejection
+    monkeypatch.setattr(energy_mod.EnergyGuard, "check", real)
+    step = NewmarkSolver.step
+
+    def halves_at_step5(self, f, split=0):
+        return step(self, f, 1 if abs(self.time + self.dt - 0.010) < 1e-9 else split)
+
+    monkeypatch.setattr(NewmarkSolver, "step", halves_at_step5)
+    run(load_scene("sliding_block", sets), tmp_path / "b", progress=False, plots=False)
+    b = np.load(tmp_path / "b" / "final_state.npz")["u"]
+    assert np.array_equal(a, b)
+
+    monkeypatch.setattr(NewmarkSolver, "step", step)
+    monkeypatch.setattr(energy_mod.EnergyGuard, "check",
+                        lambda self, row, t: (False, "forced"))
+    with pytest.raises(SolverError, match=r"step 1 .*forced, even in 64 sub-steps"):
+        run(load_scene("sliding_block", sets), tmp_path / "c", progress=False, plots=False)
