@@ -155,3 +155,38 @@ def test_max_slip_stops_undetermined_when_the_rigid_block_passes_it(tmp_path):
     assert pe["skipped"] is True and pe["converged"] is False
     assert pe["joints"]["base"]["sliding_fs"] is None
     assert pe["joints"]["base"]["meets_criterion"] is False
+
+
+def test_rotation_past_max_rotation_is_undetermined_and_sliding_off_is_a_collapse(tmp_path):
+    """The slender block rocking at 1.25 x its threshold (docs/sliding.md §8) with
+    time.max_rotation = 1e-3 rad: the run stops when the block's rotation passes it, with the
+    verdict "undetermined" and the range named, never a collapse. And the stop rule on a lift
+    joint whose mean slip reaches the joint's length: "sliding off", a collapse (a rule-level
+    check: the rule's own measures, no run)."""
+    from ngs_driver.apps.dam import run
+    from ngs_driver.run.stopping import CollapseRule
+    from ngs_driver.scene import load_scene
+    A = 1.25 * (2.0 / 10.0)
+    sets = ["geometry.profile=[[0,0],[4.0,0],[4.0,20.0],[0,20.0]]", "interface.friction=2.0",
+            "mesh.h_interface=0.25", "mesh.h_heel=0.25", "mesh.h_coarse=0.5",
+            "materials.dam.E=1e13", f"ground_motion.record=\"pulse:half-sine:{A!r}:2.0\"",
+            "time.duration=2.5", "interface.contact_stiffness=1e11", "time.max_rotation=1e-3",
+            "output.checkpoint_every=0"]
+    s = run(load_scene("sliding_block", sets), tmp_path, progress=False, plots=False)
+    assert s["verdict"] == "undetermined" and s["collapse"] is None
+    u = s["undetermined"]
+    assert u["measure"] == "rotation" and abs(u["value"]) > 1e-3
+    assert "time.max_rotation = 0.001 rad" in u["range"]
+    assert s["stopped"]["reason"].startswith("undetermined:")
+
+    rule = CollapseRule.__new__(CollapseRule)       # the rule's check alone
+    rule.names, rule.lengths = ["base", "neck"], [70.0, 19.25]
+    # max_slip 1e4 m: time.stop_slip = 0, no range limit on slip (a 19 m slip would otherwise
+    # leave the default 5 m range first: undetermined)
+    rule.max_slip, rule.max_rotation, rule._prev = 1e4, 0.05, None
+    m = {"base_slip": 0.1, "base_rotation": 0.0, "neck_slip": 19.25, "neck_rotation": 0.0}
+    c = rule.check(10, 0.02, 0.002, m, None, None, None)
+    assert c["verdict"] == "collapse" and "slid off" in c["reason"] and c["joint"] == "neck"
+    m["neck_slip"] = 19.0                            # still on its face: the run goes on
+    rule._prev = None
+    assert rule.check(10, 0.02, 0.002, m, None, None, None) is None
