@@ -324,7 +324,7 @@ class EnergyBudget:
 
 
 class EnergyGuard:
-    """No verdict from a step that breaks the energy balance (issue 31, docs/solver.md §9.1).
+    """No verdict from a step that breaks the energy balance (docs/solver.md §9.1).
 
     From two consecutive rows of the budget (``EnergyBudget.step``), the step's
 

@@ -1,4 +1,4 @@
-"""When a run stops: the collapse rule (docs/sliding.md).
+"""When a run stops: collapse, or the model's range left (docs/sliding.md §6).
 
 A run goes to the end of its record unless a joint collapses:
 
@@ -18,7 +18,7 @@ Toppling (the block's resultant outside the joint) needs rotations near atan(b/h
 koyna_1967's top block); the small-rotation kinematics end well before (docs/solver.md §11),
 so in this model it cannot be reached: a run that gets there stops first at the range below.
 
-Leaving the model's range is not a collapse (issue 31): |rotation of the block above a joint|
+Leaving the model's range is not a collapse: |rotation of the block above a joint|
 > ``time.max_rotation`` (the small-rotation kinematics, at most ``MAX_ROTATION_SUPPORTED``)
 or |slip| > ``time.max_slip`` (the user's bound of small-displacement sliding) stops the run
 with the verdict **undetermined**, naming the range.
