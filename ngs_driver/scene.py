@@ -126,11 +126,15 @@ class Time:
     newmark_beta: float = _f(0.25, lo=0.0, hi=0.5, lo_open=True)
     newmark_gamma: float = _f(0.5, lo=0.5, hi=1.0)
     max_slip: float = _f(5.0, lo=0.0, hi=1e4, lo_open=True,
-                         doc="stop (collapse) when the mean slip of a joint passes this [m]; "
-                             "alias time.stop_slip (0 there: 1e4 m, no limit)")
-    max_rotation: float = _f(0.05, lo=0.0, hi=1.0, lo_open=True,
-                             doc="stop (collapse) when the rotation of the block above a joint "
-                                 "passes this [rad] (small-rotation kinematics)")
+                         doc="stop (verdict undetermined: the model's range) when the mean "
+                             "slip of a joint passes this [m]; alias time.stop_slip (0 there: "
+                             "1e4 m, no limit)")
+    # hi: run.stopping.MAX_ROTATION_SUPPORTED (the linearised rotation's stretch theta^2/2)
+    max_rotation: float = _f(0.05, lo=0.0, hi=0.1, lo_open=True,
+                             doc="stop (verdict undetermined: the model's range) when the "
+                                 "rotation of the block above a joint passes this [rad]; at "
+                                 "most 0.1, where the small-rotation kinematics stretch the "
+                                 "block by theta^2/2 = 5e-3 (docs/solver.md §11)")
 
 
 @dataclass(frozen=True)
@@ -238,6 +242,11 @@ class Solver:
                                    "its last this-many iterations is not below half the best "
                                    "before them; 0: only max_iter cuts")
     min_dt: float = _f(1e-6, lo=0.0, hi=1.0, lo_open=True)
+    energy_guard: float = _f(0.5, lo=0.0, hi=10.0,
+                             doc="a step whose energy jump exceeds this fraction of its work "
+                                 "(+ 1e-3 of the run's energy scale) is cut and repeated in "
+                                 "sub-steps, never accepted (run.energy.EnergyGuard, "
+                                 "docs/solver.md §9.1); 0: off (only to show what it stops)")
     pairing_tolerance: float = _f(0.25, lo=0.0, hi=10.0, lo_open=True,
                                   doc="finite sliding: a joint is paired anew with the face "
                                       "below when a point has slid this fraction of the "

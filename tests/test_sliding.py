@@ -128,12 +128,13 @@ def test_trapezoidal_rule_rattles_generalized_alpha_does_not(res):
     assert ga["E_alg_over_input"] > 0
 
 
-def test_collapse_by_slip_stops_when_the_rigid_block_passes_max_slip(tmp_path):
-    """sliding_block with time.max_slip = 2 cm: the collapse rule stops the run at the first step
-    whose slip passes 2 cm, and the exact rigid block (Newmark 1965, same pulse) passes 2 cm at
+def test_max_slip_stops_undetermined_when_the_rigid_block_passes_it(tmp_path):
+    """sliding_block with time.max_slip = 2 cm: the stop rule stops the run at the first step
+    whose slip passes 2 cm, with the verdict "undetermined" (the model's range left, not a
+    collapse: issue 31), and the exact rigid block (Newmark 1965, same pulse) passes 2 cm at
     t* = 0.26786 s. The stop must fall in [t*, t* + 2 dt]: one step of detection (the rule is
     checked at the step ends) and one for the elastic block's compliance and the trapezoid
-    error (the permanent slip is within 0.1 %, test above). A collapsed run gets no
+    error (the permanent slip is within 0.1 %, test above). A run stopped there gets no
     post-earthquake solve: post_earthquake.skipped, sliding_fs null, criterion not met."""
     from ngs_driver.apps.dam import run
     from ngs_driver.scene import load_scene
@@ -143,11 +144,49 @@ def test_collapse_by_slip_stops_when_the_rigid_block_passes_max_slip(tmp_path):
     t = np.arange(0.0, 0.6, 1e-5)
     rb = rigid_block_slip(t, np.where(t <= T, A * np.sin(np.pi * t / T), 0.0), f, g=g)
     t_star = t[np.argmax(np.abs(rb) >= 0.02)]
-    c = s["collapse"]
+    assert s["collapse"] is None and s["verdict"] == "undetermined"
+    assert s["stopped"]["verdict"] == "undetermined"
+    c = s["undetermined"]
     assert c is not None and c["measure"] == "slip" and c["joint"] == "base"
+    assert "time.max_slip = 0.02 m" in c["range"]
     assert t_star <= c["time"] <= t_star + 2 * sc.time.dt, (c["time"], t_star)
     assert abs(c["value"]) >= 0.02
     pe = s["post_earthquake"]
     assert pe["skipped"] is True and pe["converged"] is False
     assert pe["joints"]["base"]["sliding_fs"] is None
     assert pe["joints"]["base"]["meets_criterion"] is False
+
+
+def test_rotation_past_max_rotation_is_undetermined_and_sliding_off_is_a_collapse(tmp_path):
+    """The slender block rocking at 1.25 x its threshold (docs/sliding.md §8) with
+    time.max_rotation = 1e-3 rad: the run stops when the block's rotation passes it, with the
+    verdict "undetermined" and the range named, never a collapse. And the stop rule on a lift
+    joint whose mean slip reaches the joint's length: "sliding off", a collapse (a rule-level
+    check: the rule's own measures, no run)."""
+    from ngs_driver.apps.dam import run
+    from ngs_driver.run.stopping import CollapseRule
+    from ngs_driver.scene import load_scene
+    A = 1.25 * (2.0 / 10.0)
+    sets = ["geometry.profile=[[0,0],[4.0,0],[4.0,20.0],[0,20.0]]", "interface.friction=2.0",
+            "mesh.h_interface=0.25", "mesh.h_heel=0.25", "mesh.h_coarse=0.5",
+            "materials.dam.E=1e13", f"ground_motion.record=\"pulse:half-sine:{A!r}:2.0\"",
+            "time.duration=2.5", "interface.contact_stiffness=1e11", "time.max_rotation=1e-3",
+            "output.checkpoint_every=0"]
+    s = run(load_scene("sliding_block", sets), tmp_path, progress=False, plots=False)
+    assert s["verdict"] == "undetermined" and s["collapse"] is None
+    u = s["undetermined"]
+    assert u["measure"] == "rotation" and abs(u["value"]) > 1e-3
+    assert "time.max_rotation = 0.001 rad" in u["range"]
+    assert s["stopped"]["reason"].startswith("undetermined:")
+
+    rule = CollapseRule.__new__(CollapseRule)       # the rule's check alone
+    rule.names, rule.lengths = ["base", "neck"], [70.0, 19.25]
+    # max_slip 1e4 m: time.stop_slip = 0, no range limit on slip (a 19 m slip would otherwise
+    # leave the default 5 m range first: undetermined)
+    rule.max_slip, rule.max_rotation, rule._prev = 1e4, 0.05, None
+    m = {"base_slip": 0.1, "base_rotation": 0.0, "neck_slip": 19.25, "neck_rotation": 0.0}
+    c = rule.check(10, 0.02, 0.002, m, None, None, None)
+    assert c["verdict"] == "collapse" and "slid off" in c["reason"] and c["joint"] == "neck"
+    m["neck_slip"] = 19.0                            # still on its face: the run goes on
+    rule._prev = None
+    assert rule.check(10, 0.02, 0.002, m, None, None, None) is None

@@ -45,10 +45,10 @@ from .store import atomic_savez, atomic_write_json, environment_info
 from ..setup import FORMULATION, characteristic_times, law_parts, validate, window_note
 from ..solve.joint_laws import initial_stiffness, law_stiffness
 from . import summary as sm
-from .checkpoint import (Checkpointer, interface_state, restore_solver_arrays, resume_difference,
-                         solver_arrays)
+from .checkpoint import (Checkpointer, interface_state, restore_solver, restore_solver_arrays,
+                         resume_difference, solver_arrays, solver_snapshot)
 from .damping import damping_matrix, low_rank_damping, modes_to_compute, rayleigh_damping
-from .energy import EnergyBudget
+from .energy import GUARD_SPLITS, EnergyBudget, EnergyGuard
 from .folder import (FolderError, FolderLock, clean_temporaries, finished_files, probe_writable,
                      reuse_error)
 from .history import HIST_KEYS, History, Snapshots, results_from_history
@@ -205,6 +205,7 @@ class Analysis:
                              + self.safety.history_keys() + self.energy.keys() + ["wall"])
         self.stop_rule = CollapseRule(model, joints, ts.max_slip, ts.max_rotation)
         self.collapse = None
+        self.undetermined = None             # the stop entry when the model's range was left
         self.window_note = window_note(scene, gm)
         self.snapshots = Snapshots(self.n_steps, scene.output.snapshots)
         self.history = None
@@ -289,6 +290,9 @@ class Analysis:
         # Fig. 12 shows the state of the largest heel opening while the base still holds
         self.heel = {"u": self.u_static.copy(), "t": 0.0, "open": float(solver.g[0, 0])}
         self.energy.start(solver.u, solver.v, solver.f, solver.t, solver.g, solver.state)
+        self.guard = EnergyGuard(0.5 * float(solver.u @ self.f_static),
+                                 fraction=scene.solver.energy_guard)
+        self.guard.start()
         self.joints.set_reference(solver.g)       # slip and rotation from the static state
         self._update_laws(solver.state)            # the sizes for step 1
         self._prepare_loop()
@@ -317,6 +321,10 @@ class Analysis:
         self.heel = {"u": arrs["heel_u"], "t": float(meta["heel_t"]),
                      "open": float(meta["heel_open"])}
         self.energy.restore(arrs)
+        self.guard = EnergyGuard(fraction=self.scene.solver.energy_guard)
+        self.guard.restore(meta.get("guard") or {},
+                           {kk: c[-1] for kk, c in self.history.cols.items()}
+                           if len(self.history) else None)
         self.joints.static_motion = arrs["joints_static_motion"]
         self.stop_rule.restore(arrs)
         self.pairing.restore(arrs, solver, arrs.get("solver_g_offset") if hasattr(arrs, "get")
@@ -374,23 +382,42 @@ class Analysis:
         f_k = seismic_load(self.f_static, self.Mrx, self.Mry, self.ax[k], self.ay[k])
         if self.absorbing is not None:
             f_k = f_k + self.absorbing.force(solver.time + solver.dt)
-        try:
-            rep, f_k = self.uplift.step(solver, f_k)      # f_k: with the uplift used
-        except SolverError as e:
-            raise SolverError(f"{scene.name}: step {k} (t = {tk:.4f} s): {e}") from None
+        snap = self._snapshot()
+        split, cuts, failed = 0, 0, 0
+        while True:
+            try:
+                rep, f_used = self.uplift.step(solver, f_k, split)  # f_used: with the uplift
+            except SolverError as e:
+                raise SolverError(f"{scene.name}: step {k} (t = {tk:.4f} s): {e}") from None
+            st = solver.state
+            # the per-point work of the joints', energy's and safety's measures, once
+            scan = joints.scan(st, solver.g, solver.t)
+            # K u, M v from the solver's pass that also forms the next step's right-hand side
+            # (the budget and the solver are built on the same model.K, model.M)
+            en = self.energy.step(solver.u, solver.v, f_used, solver.t, solver.g, st, scan,
+                                  products=solver.step_products())
+            ok, why = self.guard.check(en, tk)       # (fraction 0: the guard is off)
+            if ok:
+                break
+            # the step broke the energy balance: never accepted; repeated from the committed
+            # state in 2, 4, ... uniform sub-steps (run.energy.EnergyGuard)
+            cuts += rep.cuts + 1
+            failed += rep.iterations + rep.iterations_failed
+            split += 1
+            if split > GUARD_SPLITS:
+                raise SolverError(f"{scene.name}: step {k} (t = {tk:.4f} s): {why}, even in "
+                                  f"{2 ** GUARD_SPLITS} sub-steps; committed state is at "
+                                  f"t = {self.times[k - 1]:.6g} s")
+            self._restore(snap)
+        rep.cuts += cuts
+        rep.iterations_failed += failed
+        f_k = f_used
         if self.screening is not None:
             self.screening.update(solver.u, solver.time, solver.dt)
         self.k = k
-        st = solver.state
         if self.reservoir is not None:
             self.reservoir.sample(k, tk)
-        # the per-point work of the joints', energy's and safety's measures, once
-        scan = joints.scan(st, solver.g, solver.t)
         jm = joints.measures(st, solver.g, scan)
-        # K u, M v from the solver's pass that also forms the next step's right-hand side
-        # (the budget and the solver are built on the same model.K, model.M)
-        en = self.energy.step(solver.u, solver.v, f_k, solver.t, solver.g, st, scan,
-                              products=solver.step_products())
         cx, cy = self.model.crest_dofs
         self.history.append(
             step=k, t=tk, crest_ux=solver.u[cx], crest_uy=solver.u[cy],
@@ -404,6 +431,8 @@ class Analysis:
         self._update_laws(st, scan=scan)       # size-scale update for the next step
         if self.pairing.active and self.pairing.update(solver):   # finite sliding
             self._operator_changed()
+            # an opened point's gap jumps by OPEN_GAP with no motion: no work is booked
+            self.energy.rebase_gap(solver.operator_gap())
         if self.snapshots.due(k):
             self.snapshots.take(k, tk, solver)
         self.outputs.step(self, k, tk)
@@ -413,9 +442,13 @@ class Analysis:
             self.heel = {"u": solver.u.copy(), "t": float(tk), "open": float(solver.g[0, 0])}
         coll = self.stop_rule.check(k, tk, scene.time.dt, jm, self._static_loads, joints, scan)
         if coll is not None:
-            self.collapse = coll
-            self.stopped = {"reason": f"collapse: {coll['reason']}", "t": coll["time"],
-                            "step": k}
+            verdict = coll.pop("verdict")
+            if verdict == "collapse":
+                self.collapse = coll
+            else:                          # the model's range left (run.stopping)
+                self.undetermined = coll
+            self.stopped = {"reason": f"{verdict}: {coll['reason']}", "t": coll["time"],
+                            "step": k, "verdict": verdict}
         if self.stopped is not None:
             if self.progress:
                 self._bar.write(f"[{scene.name}] stopped at t = {tk:.3f} s: "
@@ -427,6 +460,21 @@ class Analysis:
             # what the solver carries besides the committed state (a reused Jacobian)
             solver.forget_jacobian()
         return k < self.n_steps
+
+    def _snapshot(self):
+        """What a step changes, to repeat it (the energy guard): the solver's committed state,
+        the water's, the uplift in force and the energy budget's accumulators."""
+        ext = getattr(self.solver, "ext", None)
+        return (solver_snapshot(self.solver), self.uplift.field.p,
+                None if ext is None else ext.state(), self.energy.state())
+
+    def _restore(self, snap):
+        sv, p, fluid, budget = snap
+        restore_solver(self.solver, sv)
+        self.uplift.field.p = p
+        if fluid:
+            self.solver.ext.restore(fluid)
+        self.energy.restore(budget)
 
     def _static_loads(self):
         """Gravity, water and tailwater with the uplift now (the collapse rule's FS_static)."""
@@ -475,6 +523,7 @@ class Analysis:
                                   "rayleigh": {"a0": self.damping["a0"],
                                                "a1": self.damping["a1"]},
                                   "dynamic_wall": self._dynamic_wall(),
+                                  "guard": self.guard.state(),
                                   "laws": self.joints.params()}, **arrays)
 
     def close(self):
@@ -501,7 +550,8 @@ class Analysis:
         self.timings["outputs"] = time.perf_counter() - t_out
         # post-earthquake static state from the final interface state (after final_state.npz)
         t_pe = time.perf_counter()
-        post = (self.post_check.collapsed(self.collapse) if self.collapse is not None
+        ended = self.collapse if self.collapse is not None else self.undetermined
+        post = (self.post_check.collapsed(ended) if ended is not None
                 else self.post_check.run(solver, self.f_base))
         post["wall"] = time.perf_counter() - t_pe
         safety_sum = self.safety.summary(H, scene.time.dt)
@@ -548,7 +598,10 @@ class Analysis:
             "ground_motion": sm.ground_motion_summary(scene, gm, self.window_note),
             "formulation": FORMULATION,
             "stopped": self.stopped,
+            "verdict": ("collapse" if self.collapse is not None else "undetermined"
+                        if self.undetermined is not None else "no_collapse"),
             "collapse": self.collapse,
+            "undetermined": self.undetermined,
             "finite_sliding": {"joints_paired": [j[0] for j in self.pairing.joints],
                                "repairings": int(self.pairing.repairs),
                                "tolerance": scene.solver.pairing_tolerance},
@@ -564,7 +617,7 @@ class Analysis:
             "reference_parameters": self.reference,
             "final_parameters": self.joints.params()[0],
             "joints": sm.joint_results(self.joints, H, snaps),
-            "energy": sm.energy_summary(H, self.energy.keys()),
+            "energy": {**sm.energy_summary(H, self.energy.keys()), **self.guard.summary()},
             "characteristic_times": self.chars,
             "static": self.static_info,
             "n_steps": int(self.n_steps),

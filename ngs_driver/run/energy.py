@@ -51,7 +51,22 @@ from numba import njit
 
 from ..solve.products import FusedPair, pair_products
 
-__all__ = ["EnergyBudget", "stored_energy", "ENERGY_KEYS"]
+__all__ = ["EnergyBudget", "EnergyGuard", "stored_energy", "ENERGY_KEYS", "GUARD_FRACTION",
+           "GUARD_FLOOR", "GUARD_SPLITS"]
+
+# The energy guard (``EnergyGuard``, docs/solver.md §9.1): a step that creates more energy than
+# GUARD_FRACTION of the work done in it plus GUARD_FLOOR of the run's energy scale is cut.
+# 0.5: on koyna_1967 to 4.5 s (fixed solver, guard off) the largest ratio of created energy to
+# work is 0.072 (t = 1.274 s: 1.8e3 J/m for 2.5e4 J/m), 99.9 % of the steps are below 0.032;
+# the step of the re-pairing bug (3.642 s) created 7.5e9 J/m.
+GUARD_FRACTION = 0.5
+# the floor keeps quiet steps (work ~ 0) from being cut for round-off and the joints'
+# stick-slip: 1e-3 of the scale (static strain energy, or the largest input work so far,
+# whichever is larger); koyna_1967's largest jump, 1.8e3 J/m, is 1.6e-4 of its scale
+# (1.1e7 J/m); the bug's 7.5e9 J/m is 700 times the scale
+GUARD_FLOOR = 1e-3
+# a step is retried in 2, 4, ... 2^GUARD_SPLITS uniform sub-steps before the run stops
+GUARD_SPLITS = 6
 
 ENERGY_KEYS = ("W_ext", "E_kin", "E_bulk", "E_damp", "E_alg", "E_stored", "E_diss",
                "E_scaling", "residual")
@@ -270,6 +285,12 @@ class EnergyBudget:
             row["E_kin_added_mass"] = 0.5 * float(v @ (self.added_mass @ v))
         return row
 
+    def rebase_gap(self, g):
+        """The joints' gap was re-based without motion (a joint paired anew, run/sliding: a
+        point that slid off its face is opened by ``OPEN_GAP``): the next step's joint work
+        starts from ``g`` (npts, 2), so that the jump books no work (no traction acts over it)."""
+        self._tg = (self._tg[0], np.ascontiguousarray(g, dtype=np.float64).ravel().copy())
+
     def keys(self) -> list[str]:
         water = (list(WATER_KEYS) if self.fluid is not None else []) + (
             ["E_kin_added_mass"] if self.added_mass is not None else [])
@@ -300,3 +321,100 @@ class EnergyBudget:
         u0, v0, _ = self._prev              # the products the run had (bitwise the same)
         Ku, Mv = self._km.products(_vec(u0, self._km.n), _vec(v0, self._km.n))
         self._prods = (Mv, Ku)
+
+
+class EnergyGuard:
+    """No verdict from a step that breaks the energy balance (docs/solver.md §9.1).
+
+    From two consecutive rows of the budget (``EnergyBudget.step``), the step's
+
+        jump = max(0, -d (residual + E_alg))          (energy the step created)
+        work = |d W_ext| + |d W_water| + |d W_joints| + d E_damp     (work done in the step)
+
+    with W_joints = residual + E_stored + E_diss + E_scaling (the joints' trapezoid work).
+    residual + E_alg = W_ext + W_water - (E_kin + E_bulk + E_damp + E_stored + E_diss +
+    E_scaling + the water's energies): the input minus every physical energy, independent of
+    the trapezoid that splits it between the two (at a rocking impact the residual gains
+    2.4e3 J/m and E_alg loses as much: sliding_block rocking at 1.25 x its threshold). It
+    decreases when a step makes more energy than its loads put in; the integrator's own
+    dissipation (generalized alpha, HHT) only increases it. A step is rejected when
+
+        jump > GUARD_FRACTION * work + GUARD_FLOOR * scale,
+
+    scale = max(static strain energy 1/2 u.f of the static state, the largest |W_ext| +
+    |W_water| so far). The run then repeats it from the committed state in 2, 4, ... uniform
+    sub-steps (``NewmarkSolver.step(split=k)``) and stops with an error after GUARD_SPLITS
+    halvings: such a step is never accepted. The cost: a few scalar differences per step
+    (the budget is formed anyway), and a copy of the committed state (``solver_snapshot``).
+    """
+
+    def __init__(self, e_static: float = 0.0, fraction: float = GUARD_FRACTION,
+                 floor: float = GUARD_FLOOR):
+        self.fraction, self.floor = float(fraction), float(floor)
+        self.e_static = abs(float(e_static))
+        self.prev = None                      # the last accepted row's terms
+        self.scale = self.e_static
+        self.max_jump = 0.0                   # over the accepted steps
+        self.max_jump_t = None
+        self.max_ratio = 0.0                  # jump / (fraction work + floor scale)
+        self.cuts = 0                         # rejected step attempts
+
+    @staticmethod
+    def terms(row) -> tuple:
+        wj = row["residual"] + row["E_stored"] + row["E_diss"] + row["E_scaling"]
+        return (float(row["residual"]), float(row["E_alg"]), float(row["W_ext"]),
+                float(row.get("W_water", 0.0)), float(wj), float(row["E_damp"]))
+
+    def start(self, row=None):
+        """From the static state (row None: every term zero) or a resumed run's last row."""
+        self.prev = (0.0,) * 6 if row is None else self.terms(row)
+        self.scale = max(self.e_static, abs(self.prev[2]) + abs(self.prev[3]))
+
+    def measure(self, row) -> tuple[float, float, float]:
+        """(jump, work, limit) of the step that ends in ``row``."""
+        r0, a0, x0, w0, j0, d0 = self.prev
+        r1, a1, x1, w1, j1, d1 = self.terms(row)
+        jump = max(0.0, (r0 + a0) - (r1 + a1))
+        work = abs(x1 - x0) + abs(w1 - w0) + abs(j1 - j0) + abs(d1 - d0)
+        scale = max(self.scale, abs(x1) + abs(w1))
+        return jump, work, self.fraction * work + self.floor * scale
+
+    def check(self, row, t) -> tuple[bool, str]:
+        """(accepted, why) for the step to time t that ends in ``row``; an accepted step
+        becomes the reference of the next."""
+        jump, work, limit = self.measure(row)
+        if self.fraction > 0.0 and not jump <= limit:      # NaN is rejected too
+            self.cuts += 1
+            return False, (f"energy jump {jump:.4g} J/m in the step to t = {t:.6g} s exceeds "
+                           f"{self.fraction:g} x its work {work:.4g} J/m + {self.floor:g} x the "
+                           f"energy scale (limit {limit:.4g} J/m)")
+        terms = self.terms(row)
+        self.prev = terms
+        self.scale = max(self.scale, abs(terms[2]) + abs(terms[3]))
+        if jump > self.max_jump:
+            self.max_jump, self.max_jump_t = jump, float(t)
+        if limit > 0.0:
+            self.max_ratio = max(self.max_ratio, jump / limit)
+        return True, ""
+
+    def state(self) -> dict:
+        """What a checkpoint keeps (JSON): the scale's static part and the maxima so far."""
+        return {"e_static": self.e_static, "cuts": self.cuts, "max_jump": self.max_jump,
+                "max_jump_t": self.max_jump_t, "max_ratio": self.max_ratio}
+
+    def restore(self, d, row):
+        """A resumed run: ``state()``'s dict and the last history row (its budget terms)."""
+        self.e_static = abs(float(d.get("e_static", 0.0)))
+        self.start(row)
+        self.cuts = int(d.get("cuts", 0))
+        self.max_jump = float(d.get("max_jump", 0.0))
+        self.max_jump_t = d.get("max_jump_t")
+        self.max_ratio = float(d.get("max_ratio", 0.0))
+
+    def summary(self) -> dict:
+        return {"max_step_jump": self.max_jump, "max_step_jump_t": self.max_jump_t,
+                "max_step_jump_over_limit": self.max_ratio, "guard_cuts": int(self.cuts),
+                "guard": f"a step is cut when the energy it creates, -d(residual + E_alg), > "
+                         f"{self.fraction:g} x (|d W_ext| + |d W_water| + |d W_joints| + "
+                         f"d E_damp) + {self.floor:g} x max(static strain energy, |W_ext| + "
+                         f"|W_water|); docs/solver.md §9.1"}

@@ -90,12 +90,13 @@ class PostEarthquakeCheck:
                 "note": note, "joints": joints}
 
     def collapsed(self, collapse: dict) -> dict:
-        """No post-earthquake state after a collapse (the run stopped with a block sliding
-        without bound or rotated past time.max_rotation; the small-kinematics static solve
-        would find a meaningless equilibrium): no FS, the criterion is not met."""
+        """No post-earthquake state after a collapse or a stop outside the model's range (a
+        block sliding without bound, sliding off, or rotated past time.max_rotation; the
+        small-kinematics static solve would find a meaningless equilibrium): no FS, the
+        criterion is not met."""
         return {"converged": False, "newton_iterations": None, "criterion": FS_CRITERION,
                 "skipped": True,
-                "note": f"not computed: the run collapsed at t = {collapse['time']:.4g} s "
+                "note": f"not computed: the run stopped at t = {collapse['time']:.4g} s "
                         f"({collapse['reason']})",
                 "joints": {name: {"sliding_fs": None, "meets_criterion": False}
                            for name in self.joints.names}}

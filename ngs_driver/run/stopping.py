@@ -1,4 +1,4 @@
-"""When a run stops: the collapse rule (docs/sliding.md).
+"""When a run stops: collapse, or the model's range left (docs/sliding.md §6).
 
 A run goes to the end of its record unless a joint collapses:
 
@@ -11,20 +11,36 @@ A run goes to the end of its record unless a joint collapses:
   without the earthquake it accelerates down the slope of its static loads. (A joint with a
   bonded ligament left is not collapsing yet: the ligament either holds or debonds, and then
   the rule applies);
-* **a kinematic limit**: |slip| > ``time.max_slip`` or |rotation of the block above| >
-  ``time.max_rotation`` (from the static state), beyond which the small-rotation kinematics
-  and the user's interest end.
+* **sliding off**: the mean slip of a lift joint reaches the joint's length: the block above
+  has left the block below (run/sliding opens every point that has no face below it).
 
-``CollapseRule.check`` returns None or the ``collapse`` entry of summary.json: joint, time,
-step, reason (and the measure that triggered it).
+Toppling (the block's resultant outside the joint) needs rotations near atan(b/h) (0.49 rad for
+koyna_1967's top block); the small-rotation kinematics end well before (docs/solver.md §11),
+so in this model it cannot be reached: a run that gets there stops first at the range below.
+
+Leaving the model's range is not a collapse: |rotation of the block above a joint|
+> ``time.max_rotation`` (the small-rotation kinematics, at most ``MAX_ROTATION_SUPPORTED``)
+or |slip| > ``time.max_slip`` (the user's bound of small-displacement sliding) stops the run
+with the verdict **undetermined**, naming the range.
+
+``CollapseRule.check`` returns None or the stop entry: joint, time, step, reason, the measure
+that triggered it and ``verdict`` ("collapse" or "undetermined"; "range" for the latter).
 """
 from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["CollapseRule", "SLIDING_RATE"]
+__all__ = ["CollapseRule", "SLIDING_RATE", "MAX_ROTATION_SUPPORTED", "VERDICTS"]
 
 SLIDING_RATE = 1e-3     # m/s: a joint whose mean slip changes faster than this is sliding
+# the largest time.max_rotation the small-rotation kinematics support (scene.py checks it):
+# a rigid rotation theta of the linearised kinematics stretches the block by theta^2 / 2,
+# 5e-3 at 0.1 rad (~150 MPa of spurious stress at E = 31 GPa, 50 x concrete's tensile
+# strength); docs/solver.md §11
+MAX_ROTATION_SUPPORTED = 0.1
+# summary.json "verdict": the record's end reached, a physical collapse, or the model's range
+# left (kinematic limits): nothing can be said about the dam past it
+VERDICTS = ("no_collapse", "collapse", "undetermined")
 
 
 class CollapseRule:
@@ -43,6 +59,8 @@ class CollapseRule:
                 above |= upper_columns(model, b)
             self.masks.append((above & xdof, above & ydof))
         self._prev = None
+        # each joint's length (the sum of its integration weights): sliding off
+        self.lengths = [float(np.sum(joints.w[sl])) for sl in joints.slices]
 
     def static_fs(self, f_static, joints, scan) -> list:
         """FS_static of every joint for the static load vector ``f_static`` (with the current
@@ -68,17 +86,29 @@ class CollapseRule:
         rot = np.array([measures[f"{n}_rotation"] for n in self.names])
         prev, self._prev = self._prev, slip
         for i, n in enumerate(self.names):
-            if abs(slip[i]) > self.max_slip:
-                return {"joint": n, "time": float(t), "step": int(k),
-                        "reason": f"the slip of joint {n!r}, {slip[i]:.4g} m, passed "
-                                  f"time.max_slip = {self.max_slip:g} m",
+            if i > 0 and abs(slip[i]) >= self.lengths[i]:
+                return {"joint": n, "time": float(t), "step": int(k), "verdict": "collapse",
+                        "reason": f"the block above joint {n!r} slid off: its slip "
+                                  f"{slip[i]:.4g} m reached the joint's length "
+                                  f"{self.lengths[i]:.4g} m (sliding off)",
                         "measure": "slip", "value": float(slip[i])}
             if abs(rot[i]) > self.max_rotation:
-                return {"joint": n, "time": float(t), "step": int(k),
+                return {"joint": n, "time": float(t), "step": int(k), "verdict": "undetermined",
+                        "range": f"small-rotation kinematics: |rotation| <= time.max_rotation "
+                                 f"= {self.max_rotation:g} rad (docs/solver.md §11)",
                         "reason": f"the rotation of the block above joint {n!r}, "
-                                  f"{rot[i]:.4g} rad, passed time.max_rotation = "
-                                  f"{self.max_rotation:g} rad",
+                                  f"{rot[i]:.4g} rad, left the model's range (time.max_rotation "
+                                  f"= {self.max_rotation:g} rad, the small-rotation kinematics): "
+                                  f"the verdict past it is undetermined, not a collapse",
                         "measure": "rotation", "value": float(rot[i])}
+            if abs(slip[i]) > self.max_slip:
+                return {"joint": n, "time": float(t), "step": int(k), "verdict": "undetermined",
+                        "range": f"small-displacement sliding: |slip| <= time.max_slip = "
+                                 f"{self.max_slip:g} m",
+                        "reason": f"the slip of joint {n!r}, {slip[i]:.4g} m, left the model's "
+                                  f"range (time.max_slip = {self.max_slip:g} m): the verdict "
+                                  f"past it is undetermined, not a collapse",
+                        "measure": "slip", "value": float(slip[i])}
         if prev is None:
             return None
         rate = (slip - prev) / dt
@@ -91,7 +121,7 @@ class CollapseRule:
         fs = self.static_fs(static_loads(), joints, scan)
         for i, n in enumerate(self.names):
             if sliding[i] and cracked[i] and fs[i] < 1.0:
-                return {"joint": n, "time": float(t), "step": int(k),
+                return {"joint": n, "time": float(t), "step": int(k), "verdict": "collapse",
                         "reason": f"joint {n!r} is cracked over its length and slides "
                                   f"({rate[i]:+.3g} m/s), and friction alone cannot hold the "
                                   f"static loads of its cracked state: FS_static = "

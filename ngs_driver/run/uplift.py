@@ -146,12 +146,14 @@ class Uplift:
         self.field.p_pre = p.copy()
         self.field.p = p.copy()
 
-    def step(self, solver, f_k):
-        """One time step; f_k already holds the static uplift. Returns (report, load used)."""
+    def step(self, solver, f_k, split: int = 0):
+        """One time step; f_k already holds the static uplift. Returns (report, load used).
+        split: sub-steps of at most dt / 2^split (``NewmarkSolver.step``)."""
         if not self.state_dependent:
-            return solver.step(f_k), f_k
+            return solver.step(f_k, split), f_k
         f_base = f_k - self.field.load(self.p_static)
-        rep, p, f = self.solve(solver, solver.step, f_base, self.field.p, True)
+        rep, p, f = self.solve(solver, lambda f: solver.step(f, split), f_base, self.field.p,
+                               True)
         self.field.p = p
         return rep, f
 

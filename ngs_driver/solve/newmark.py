@@ -378,6 +378,7 @@ class NewmarkSolver:
         # the gap is g = B u + g_offset: g_offset is zero until a sliding joint is re-paired
         # (``set_operator``), which keeps g continuous across the new pairing
         self.g_offset = None
+        self._f_off = None
         self._set_interface_dofs()
         self._ptp = self._ptp_of = self._ptp_map = None   # G^T Dw G pattern (_ptp_pattern)
         self._ptp_flat = None
@@ -428,8 +429,23 @@ class NewmarkSolver:
         self.g_offset = np.asarray(g_offset, dtype=np.float64).copy()
         self._set_interface_dofs()
         self._BtWK0B = (self.BT @ sp.diags(self._k0v * np.repeat(self.w, 2)) @ self.B).tocsr()
+        self._set_offset_force()
         self._cache.clear()
         self._static_cache = None
+
+    def _set_offset_force(self):
+        """f_off = B^T W K0 g_offset: the part of the interface's elastic force K0 g that the
+        factorised matrix (which holds B^T W K0 B, acting on B u only) does not produce once the
+        gap has an offset. The condensed equations subtract c f_off from the right-hand side
+        (``_attempt``): A u = rhs - c B^T W (phi + K0 g_offset), phi = t - K0 g. Without it a
+        re-paired joint carried a spurious traction K0 g_offset at every point: ~1e6 Pa for
+        the 1e-5 m offsets of a continuous re-pairing, and 9e10 Pa at a point that slid off
+        its face (its offset opens it by 1 m): the energy of koyna_1967's 3.642 s jump
+        (docs/solver.md §2.7)."""
+        if self.g_offset is None:
+            self._f_off = None
+            return
+        self._f_off = self.BT @ (self._wd * self._k0v * self.g_offset)
 
     def _gap(self, u):
         """g = B u (+ g_offset) as a flat (2 npts) vector."""
@@ -448,6 +464,8 @@ class NewmarkSolver:
         self._k0blk[:, 1, 1] = self.k0p[:, 1]
         self._gref = reference_gap(law) * 1e-3 * math.sqrt(self.npts)
         self._BtWK0B = (self.BT @ sp.diags(self._k0v * np.repeat(self.w, 2)) @ self.B).tocsr()
+        if getattr(self, "g_offset", None) is not None:
+            self._set_offset_force()
 
     def set_state(self, state):
         """Set the committed interface state before the first solve (e.g. joints that start
@@ -989,6 +1007,8 @@ class NewmarkSolver:
         rhs = f_next if h is None else self._rhs(h, f_next)
         with np.errstate(all="ignore"):
             if self.method == "condensed":
+                if self._f_off is not None:        # the gap's offset (``_set_offset_force``)
+                    rhs = rhs - c * self._f_off
                 return self._newton_condensed(h, rhs, c)
             return self._newton_full(h, rhs, c)
 
@@ -1146,18 +1166,26 @@ class NewmarkSolver:
         stiff = self.C is not None and bool(np.any(self.C.diagonal()[massless] != 0.0))
         initial_acceleration(self, f, massless, 1.0 if stiff else 0.0)
 
-    def step(self, f_next) -> StepReport:
+    def step(self, f_next, split: int = 0) -> StepReport:
         """Advance by dt to the load ``f_next``; on non-convergence the sub-step is halved and
         retried from the committed state (load interpolated linearly in time), sizes grow back
         after success.  Raises SolverError below ``min_dt`` (committed fields are then those at
-        the last accepted sub-step, ``self.time`` tells where)."""
+        the last accepted sub-step, ``self.time`` tells where). split = k > 0: the step is
+        taken in sub-steps of at most dt / 2^k (the retry of a step that the run's energy
+        guard rejected, ``run.energy.EnergyGuard``); SolverError if dt / 2^k < ``min_dt``."""
         t0 = time.perf_counter()
         rep = StepReport()
         self._static_cache = None        # the static factorisation is not needed any more
         f_next = np.asarray(f_next, dtype=float)
         f_start = self.f if self.f is not None else f_next
         pos = Fraction(0)
-        hf = Fraction(1)
+        hmax = Fraction(1, 2 ** int(split))
+        if self.dt * float(hmax) < self.min_dt * (1 - 1e-12):
+            raise SolverError(f"step to t = {self.time + self.dt:.6g} s: a sub-step dt / "
+                              f"2^{split} = {self.dt * float(hmax):.3g} s is below the minimum "
+                              f"sub-step {self.min_dt:.3g} s; committed state is at "
+                              f"t = {self.time:.6g} s")
+        hf = hmax
         while pos < 1:
             hf = min(hf, 1 - pos)
             h = self.dt * float(hf)
@@ -1174,7 +1202,7 @@ class NewmarkSolver:
                 self._slip_sign = signs
                 rep.accepted(res, h)
                 pos = end
-                if hf < 1 and pos % (2 * hf) == 0:
+                if hf < hmax and pos % (2 * hf) == 0:
                     hf *= 2
             else:
                 rep.rejected(res)
@@ -1304,6 +1332,12 @@ class NewmarkSolver:
         c0 = 1/(beta h^2), c1 = gamma/(beta h), c2 = 1/(beta h), c3 = 1/(2 beta) - 1,
         c4 = gamma/beta - 1, c5 = h (gamma/(2 beta) - 1)."""
         return self._coeffs(h)
+
+    def operator_gap(self):
+        """(npts, 2) gap B u + g_offset of the committed u under the current operator: after a
+        re-pairing (``set_operator``) it differs from the committed gap ``g`` (the law's) where
+        a point slid off its face and was opened (run/sliding)."""
+        return self._gap(self.u).reshape(-1, 2)
 
     def internal_force(self, t):
         """B^T W t: the free-DOF force of the interface tractions t (npts, 2)."""

@@ -37,8 +37,9 @@ DEFAULT_LIMIT_STATES = (
      "permanent base slip >= 150 mm (6 in; Chopra & Zhang 1991 range)"),
     ("residual_slip_600mm", "slip_residual_m", 0.600,
      "permanent base slip >= 600 mm (2 ft; Chopra & Zhang 1991 range)"),
-    ("collapse", "collapse", 1.0, "collapse: a joint slides without bound or passes "
-                                  "time.max_slip / time.max_rotation (run/stopping.py)"),
+    ("collapse", "collapse", 1.0, "collapse: a joint slides without bound or slides off "
+                                  "(run/stopping.py; a run that left the model's range, "
+                                  "verdict undetermined, is not a collapse)"),
     ("base_failure", "full_base_failure", 1.0, "full base failure (whole base debonded, or "
                                                 "collapse)"),
 )
