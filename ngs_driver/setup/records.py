@@ -60,6 +60,8 @@ def load_ground_motion(scene):
                              "'2/3-same'")
     if g.scale != 1.0:
         gm = gm.scaled(g.scale)
+    if getattr(g, "polarity", "normal") == "inverse":      # SLAMMER's inverse polarity
+        gm = gm.scaled(-1.0)
     fx = 1.0 if "x" in g.components else 0.0
     fy = 1.0 if "y" in g.components else 0.0
     if fx == 0.0 or fy == 0.0:
