@@ -89,3 +89,19 @@ def test_stiff_fe_block_slides_as_slammer(res):
         assert abs(r["fe_vs_rigid"]) <= 0.01, r
         assert r["min_slip_cm"] > -1e-4, r           # 1 um: never upstream (one way)
         assert r["residual_over_input"] <= 0.01, r
+
+
+def test_a_record_file_with_a_byte_order_mark_reads_as_without(tmp_path):
+    """One of SLAMMER's sample files as pySLAMMER keeps it (Northridge VSP-360) starts with a
+    UTF-8 byte-order mark; a scene's record in such a file reads as without it (the BOM is not
+    a data column), bit for bit, through the scene's own path (column count, reader)."""
+    from ngs_driver.scene import load_scene
+    from ngs_driver.setup import load_ground_motion
+    src = slammer.DATA / "Northridge_1994_PAC-175.csv"
+    bom = tmp_path / "bom.csv"
+    bom.write_bytes(b"\xef\xbb\xbf" + src.read_bytes())
+    sets = ["ground_motion.units=\"g\"", "ground_motion.baseline=false", "time.dt=0.02",
+            "time.duration=19.98"]
+    a = load_ground_motion(load_scene("sliding_block", sets + [f"ground_motion.record=\"{src}\""]))
+    b = load_ground_motion(load_scene("sliding_block", sets + [f"ground_motion.record=\"{bom}\""]))
+    assert a.n == b.n == 1000 and np.array_equal(a.ax, b.ax)

@@ -36,7 +36,7 @@ def load_ground_motion(scene):
             gm = gmod.read_at2(p, "x")
         else:
             ncol = None
-            for ln in p.read_text(encoding="utf-8", errors="replace").splitlines():
+            for ln in p.read_text(encoding="utf-8-sig", errors="replace").splitlines():
                 body = ln.split("#", 1)[0].strip()
                 if body:
                     ncol = len(body.replace(",", " ").split())
