@@ -79,7 +79,9 @@ FULL = dict(records=None, fe_min_cm=MIN_CM, concrete_records=None,
             E_sweep=(30e9, 10e9, 3e9, 1e9, 0.3e9, 0.1e9, 0.03e9))
 FAST = dict(records=("Morgan_Hill_1984_CYC-285.csv", "N_Palm_Springs_1986_WWT-180.csv"),
             fe_cases=(("Morgan_Hill_1984_CYC-285.csv", 0.1, 0.4),), concrete_records=(),
-            concrete_dts=(), dt_record=None, E_sweep=())
+            concrete_dts=(), dt_record=None, E_sweep=(),
+            # the concrete block on North Palm Springs' sliding (1.0-5.5 s) at dt = 2 and 1 ms
+            concrete_window=("N_Palm_Springs_1986_WWT-180.csv", (1.0, 4.5), (0.002, 0.001)))
 
 
 def push_over_weight(block) -> float:
@@ -206,21 +208,27 @@ def fe_sets(block, file, ky, pga, peak_g, polarity, dt, duration, E=None, kc="bl
     return sets
 
 
-def fe_case(work, block, file, ky, pga, polarity, dt=None, E=None, kc="block", rec=None):
+def fe_case(work, block, file, ky, pga, polarity, dt=None, E=None, kc="block", rec=None,
+            window=None):
     """One FE run of a SLAMMER case and its references: the FE's permanent slip, our exact
     rigid block's, the slip history's smallest value (one way: never upstream) and the
-    energy residual."""
+    energy residual. ``window`` = (start, duration) [s]: only that part of the record (the
+    block at rest relative to the ground at its start, the rigid block too), else all of it."""
     t, a, dt_rec = rec if rec is not None else load_record(file)
     if dt is None:
         dt = dt_rec / math.ceil(dt_rec / FE_DT_MAX - 1e-9)
     peak = float(np.max(np.abs(a)))
-    n = math.floor((t[-1] - t[0]) / dt + 1e-9)          # whole steps within the record
+    start, length = window if window is not None else (0.0, float(t[-1] - t[0]))
+    n = math.floor(length / dt + 1e-9)                    # whole steps within the record
     duration = round(n * dt, 9)
     sets = fe_sets(block, file, ky, pga, peak, polarity, dt, duration, E=E, kc=kc)
+    if window is not None:
+        sets.append(f"ground_motion.start={start!r}")
     H_, s, sc = run_case(sets, tempfile.mkdtemp(dir=work))
     a_s = slammer_axis(a, pga, polarity)
-    rb = rigid_slip(t, a_s, ky, push_over_weight(block))
-    rb_end = float(np.interp(t[0] + duration, t, rb))     # at the run's last step
+    tw = t[0] + start + dt_rec * np.arange(int(math.ceil(duration / dt_rec - 1e-9)) + 1)
+    rb = rigid_slip(tw, np.interp(tw, t, a_s, right=0.0), ky, push_over_weight(block))
+    rb_end = float(np.interp(tw[0] + duration, tw, rb))   # at the run's last step
     fe = float(s["joints"]["base"]["slip_residual"])
     slip = np.asarray(H_["base_slip"], dtype=float)
     e = s["energy"]
@@ -270,7 +278,13 @@ def concrete_rows(cfg, work) -> dict:
     files = cfg["concrete_records"]
     if files is None:
         files = sorted({r["file"] for r in table.values()})
-    res = {"records": [], "dt": [], "split": [], "E": []}
+    res = {"records": [], "dt": [], "split": [], "E": [], "window": []}
+    if cfg.get("concrete_window"):
+        file, window, dts = cfg["concrete_window"]
+        rec = load_record(file)
+        for dt in dts:
+            res["window"].append(fe_case(work, CONCRETE, file, ky, pga, "normal", dt=dt,
+                                         rec=rec, window=window))
     for file in files:
         rec = load_record(file)
         tm = mean_period(rec[1], rec[2])
@@ -354,7 +368,7 @@ def report(res) -> str:
                  f"{1e3 * r['dt']:g} | {r['residual_over_input']:.1e} | "
                  f"{'yes' if r['held'] else ''} |")
     c = res["concrete"]
-    if c["records"] or c["dt"]:
+    if c["records"] or c["dt"] or c["window"]:
         ky, pga = CONCRETE_CASE
         L += ["", f"## The concrete block against the rigid block (k_y = {ky:g} g, PGA = "
               f"{pga:g} g)", "",
@@ -363,8 +377,9 @@ def report(res) -> str:
               "so SLAMMER's one-way answer holds: upstream threshold 0.5 g), E = 30 GPa, the "
               "default contact (9e10 Pa/m) and damping (rayleigh_deformation), dt = 1 ms. "
               "f1: the block's first frequency on its contact; T_m: the record's mean period "
-              "(Rathje et al. 1998).", "",
-              "| record | polarity | SLAMMER [cm] | rigid [cm] | concrete [cm] | concrete / "
+              "(Rathje et al. 1998)."]
+    if c["records"]:
+        L += ["", "| record | polarity | SLAMMER [cm] | rigid [cm] | concrete [cm] | concrete / "
               "rigid | f1 [Hz] | T1 / T_m | residual / input |", "|---|---|---|---|---|---|---|---|---|"]
         for r in c["records"]:
             T1 = 1.0 / r["f1"] if r["f1"] else None
@@ -373,6 +388,13 @@ def report(res) -> str:
                      f"{r['f1'] or float('nan'):.1f} | "
                      f"{(T1 / r['Tm']) if T1 else float('nan'):.3f} | "
                      f"{r['residual_over_input']:.1e} |")
+    if c["window"]:
+        L += ["", f"### The concrete block on a window ({c['window'][0]['file'][:-4]}, 1.0-5.5 "
+              "s, SLAMMER normal)", "", "| dt [ms] | concrete [cm] | rigid [cm] | concrete / "
+              "rigid | residual / input |", "|---|---|---|---|---|"]
+        for r in c["window"]:
+            L.append(f"| {1e3 * r['dt']:g} | {r['fe_cm']:.5f} | {r['rigid_cm']:.5f} | "
+                     f"{_pct(r['fe_vs_rigid'])} | {r['residual_over_input']:.1e} |")
     if c["dt"]:
         L += ["", f"### Convergence with dt ({c['dt'][0]['file'][:-4]}, SLAMMER normal)", "",
               "| dt [ms] | concrete [cm] | concrete / rigid | residual / input |",
