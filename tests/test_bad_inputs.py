@@ -197,6 +197,9 @@ SCENES = [
     (["time.stop_slip=-1"], r"time.stop_slip = -1: out of range, allowed \[0, 10000\] m \(alias "
                             r"of time.max_slip"),
     (["solver.pairing_tolerance=0"], r"solver.pairing_tolerance = 0.0: out of range"),
+    # a record's polarity: as stored or reversed (SLAMMER's normal / inverse)
+    (["ground_motion.polarity=reversed"],
+     r"ground_motion.polarity = 'reversed': not allowed, choose one of \['normal', 'inverse'\]"),
     (["ground_motion.record='pulse:square:0.5:0.4'"],
      r"ground_motion.record = 'pulse:square:0.5:0.4': not a pulse; allowed: 'pulse:<shape>"),
     # physical sanity at --dry-run (issue 33; setup/sanity.py, docs/solver.md §8.7)

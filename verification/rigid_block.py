@@ -59,8 +59,14 @@ def rigid_block_slip(t, ax, f, *, ay=None, g=9.81, push_over_weight=0.0):
             dd, dm = (d1 - d0) / h, (m1 - m0) / h
             dt_, mt_ = d0 + dd * tau, m0 + dm * tau
             if vel == 0.0:                          # stuck: when does |d| exceed mu?
-                if abs(dt_) > mt_ + 1e-14 * max(1.0, mt_):
-                    sgn = 1.0 if dt_ > 0 else -1.0
+                tol = 1e-14 * max(1.0, mt_)
+                sgn = 1.0 if dt_ > 0 else -1.0
+                # sliding starts where |d| is past mu, or at mu (within round-off) and rising:
+                # the crossing found below lands there, and the block must start at once
+                # (re-testing |d| > mu + tol there missed it, and the block stuck to the end
+                # of the interval: sliding began up to one sample late)
+                if abs(dt_) > mt_ + tol or (abs(dt_) >= mt_ - tol and sgn * dd - dm > 0.0):
+                    pass
                 else:
                     # first tau' in (tau, h] where d = mu or d = -mu (and beyond it |d| > mu)
                     cand = []
@@ -83,6 +89,8 @@ def rigid_block_slip(t, ax, f, *, ay=None, g=9.81, push_over_weight=0.0):
             sgn = 1.0 if vel > 0 else -1.0
             a0 = (d0 + dd * tau) - sgn * (m0 + dm * tau)
             a1 = dd - sgn * dm
+            if abs(vel) <= 1e-300 and sgn * a0 < 0.0:
+                a0 = 0.0                              # just started at the threshold: round-off
             # v(x) = vel + a0 x + a1 x^2 / 2 on x in (0, h - tau]: stops at its first zero
             r = _roots_in(0.5 * a1, a0, vel, 1e-300, h - tau)
             x = r[0] if r else h - tau

@@ -43,8 +43,8 @@ STIFF_E = 1.0e13             # Pa: a block 330 x stiffer than concrete (its mode
 STIFF_KC = 1.0e13            # Pa/m: the stiff block's contact, 110 x the default 9e10: the
                              # reference is a rigid block on a rigid plane; at the default
                              # contact stiffness the elastic contact itself moves the slip of
-                             # the one-cycle pulse by +4.0 % (1e12: +1.6 %, 1e13: +1.6 %; at
-                             # dt = 0.5 ms +4.1 % and +1.1 %): the contact sweep shows it
+                             # the one-cycle pulse by +4.06 % (1e13: +1.66 %; at dt = 0.5 ms
+                             # +4.09 % at the default): the contact sweep shows it
 NO_DAMPING = ["damping.ratio=0"]
 
 # (tag, block L x H [m], water depth [m], friction, record, duration [s], extra overrides)

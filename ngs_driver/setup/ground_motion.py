@@ -210,7 +210,7 @@ def _open_text(path, what: str) -> tuple[Path, list[str]]:
         raise ValueError(f"{what} file {str(p)!r} does not exist (missing file)")
     if not p.is_file():
         raise ValueError(f"{what} file {str(p)!r} is not a regular file")
-    lines = p.read_text(encoding="utf-8", errors="replace").splitlines()
+    lines = p.read_text(encoding="utf-8-sig", errors="replace").splitlines()  # BOM: not data
     if not any(ln.split("#", 1)[0].strip() for ln in lines):
         raise ValueError(f"{what} file {str(p)!r} is empty (no data lines)")
     return p, lines

@@ -36,7 +36,7 @@ def load_ground_motion(scene):
             gm = gmod.read_at2(p, "x")
         else:
             ncol = None
-            for ln in p.read_text(encoding="utf-8", errors="replace").splitlines():
+            for ln in p.read_text(encoding="utf-8-sig", errors="replace").splitlines():
                 body = ln.split("#", 1)[0].strip()
                 if body:
                     ncol = len(body.replace(",", " ").split())
@@ -60,6 +60,8 @@ def load_ground_motion(scene):
                              "'2/3-same'")
     if g.scale != 1.0:
         gm = gm.scaled(g.scale)
+    if getattr(g, "polarity", "normal") == "inverse":      # SLAMMER's inverse polarity
+        gm = gm.scaled(-1.0)
     fx = 1.0 if "x" in g.components else 0.0
     fy = 1.0 if "y" in g.components else 0.0
     if fx == 0.0 or fy == 0.0:
