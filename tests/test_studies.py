@@ -346,3 +346,11 @@ def test_limit_states_parse_and_collapse_exceeds_sliding_states():
              "crack_heel_max_m": 0.5}]
     assert exceedances(rows, "slip_residual_m", 0.6)["z"] == [1]
     assert exceedances(rows, "crack_heel_max_m", 1.0)["z"] == [0]
+    # a run that left the model's range (verdict undetermined) is not a run that held: it
+    # exceeds where it got before the stop, elsewhere it is counted as failed runs are
+    und = {"status": "ok", "level_g": 0.5, "slip_residual_m": 0.7, "collapse": 0,
+           "undetermined": 1, "crack_heel_max_m": 0.5}
+    assert exceedances(rows + [und], "slip_residual_m", 0.6)["z"] == [2]
+    assert exceedances(rows + [und], "collapse", 1.0)["z"] == [2]
+    assert exceedances(rows + [und], "collapse", 1.0, failed="exclude") == {
+        "levels": [0.5], "n": [2], "z": [1]}

@@ -170,7 +170,11 @@ def probability(x, theta: float, beta: float):
 def exceedances(rows, column: str, threshold: float, failed: str = "exceed") -> dict:
     """Per level: n runs, z exceeding ``column >= threshold``. Runs that failed for a physical
     reason (solver error after all cuts) count as exceeding (``failed='exceed'``, numerical
-    collapse as in IDA practice) or are left out (``'exclude'``)."""
+    collapse as in IDA practice) or are left out (``'exclude'``). A run that stopped because it
+    left the model's range (verdict undetermined: ``time.max_slip`` / ``time.max_rotation``,
+    run/stopping.py) exceeds where the value it reached before the stop does; elsewhere its
+    outcome is unknown and it follows ``failed`` like a failed run (counting it as not
+    exceeding would bias the fragility low)."""
     lv = {}
     for r in rows:
         if r["status"] == "failed":
@@ -181,6 +185,15 @@ def exceedances(rows, column: str, threshold: float, failed: str = "exceed") -> 
             continue
         elif column in COLLAPSE_EXCEEDS and r.get("collapse"):
             hit = True                  # a collapsed run exceeds every sliding limit state
+        elif r.get("undetermined"):
+            v = r.get(column)
+            if v is not None and not (isinstance(v, float) and math.isnan(v)) \
+                    and float(v) >= threshold:
+                hit = True              # reached before the run left the model's range
+            elif failed == "exclude":
+                continue
+            else:
+                hit = True
         else:
             v = r.get(column)
             if v is None or (isinstance(v, float) and math.isnan(v)):

@@ -50,7 +50,7 @@ DEMANDS = ("crack_heel_max_m", "crack_heel_final_m", "debonded_total_max_m",
            "debonded_total_final_m", "max_D", "slip_max_m", "slip_residual_m",
            "rotation_max_rad", "rotation_residual_rad", "crest_drift_max",
            "full_base_failure", "collapse", "collapse_joint", "t_collapse_s",
-           "t_sliding_failure_s")
+           "undetermined", "t_sliding_failure_s")
 ROW_KEYS = ("id", "set", "record", "component", "event", "year", "station", "magnitude",
             "im", "level_g", "scale", "im_unscaled_g", "T1_s", "status", "message",
             "wall_s", "attempts", "worker") + DEMANDS
@@ -238,6 +238,7 @@ def demand_measures(summary: dict | None, rec: dict, model, base=slice(None)) ->
     d["collapse"] = int(coll is not None)
     d["collapse_joint"] = coll["joint"] if coll else None
     d["t_collapse_s"] = coll["time"] if coll else None
+    d["undetermined"] = int(summary.get("undetermined") is not None)   # left the model's range
     # lift joints: their own permanent slip and rotation
     for name, j in (summary.get("joints") or {}).items():
         if name != "base" and "slip_residual" in j:
