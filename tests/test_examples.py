@@ -36,7 +36,7 @@ def value(out: str, name: str) -> float:
 def test_every_example_is_tested():
     names = sorted(p.name for p in EXAMPLES.glob("*.py"))
     assert names == ["ex01_readme_snippet.py", "ex02_dcb_skfem.py", "ex03_direct_shear_3d.py",
-                     "ex04_sn_curve.py"]
+                     "ex04_sn_curve.py", "ex05_library_run.py"]
 
 
 def test_readme_snippet():
@@ -111,3 +111,24 @@ def test_interfacelaw_imports_no_fe_package():
             "bad = [m for m in sys.modules if m.split('.')[0] in "
             "('skfem', 'ngsolve', 'netgen', 'ngs_driver')]; print(bad); assert not bad")
     run("-c", code)
+
+
+def test_library_run():
+    """A run driven as a library with an outputs object of one's own: the base's static forces
+    against statics by hand, computed again here from the scene file (the dam's weight from
+    the profile's area; the hydrostatic thrust on the vertical upstream face)."""
+    out = run("examples/ex05_library_run.py")
+    from ngs_driver.scene import load_scene
+    sc = load_scene("koyna_smoke")
+    xy = sc.geometry.profile
+    area = 0.5 * abs(sum(x0 * y1 - x1 * y0 for (x0, y0), (x1, y1) in zip(xy, xy[1:] + xy[:1])))
+    W = sc.materials.dam.rho * sc.loads.gravity * area
+    P = sc.loads.water_density * sc.loads.gravity * sc.reservoir.level ** 2 / 2
+    # 1e-6: the static solve's relative residual tolerance (1e-8) and the Gauss sums, with margin
+    assert value(out, "N_static_over_W") == pytest.approx(1.0, abs=1e-6)
+    first = out.strip().splitlines()[-2]
+    assert float(re.search(r"W = (" + NUMBER + ")", first).group(1)) == pytest.approx(W, rel=1e-6)
+    assert float(re.search(r"T_static = (" + NUMBER + ")", first).group(1)) == pytest.approx(
+        P, rel=1e-6)
+    assert int(re.search(r"steps = (\d+)", first).group(1)) == round(
+        sc.time.duration / sc.time.dt)
