@@ -99,3 +99,45 @@ def test_linear_taft_against_skfem_fast(tmp_path, study):
     # 0.179 g peak at 3.70 s and is of the size of Sd(f1) (a few cm on this coarse section)
     assert 3.7 <= res["t_peak_s"] <= 6.0 and 0.005 < res["peak_ours_m"] < 0.05
     assert "(tolerance 0.02: met)" in (tmp_path / "pine_flat_linear.md").read_text()
+
+
+COARSE = ["mesh.h_heel=1.0", "mesh.heel_zone=0.0", "mesh.h_interface=6.0", "mesh.h_coarse=6.0",
+          "mesh.growth=1.5", "reservoir.length=250.0", "reservoir.h_max=10.0"]
+
+
+def test_modal_prints_the_measured_period(tmp_path, capsys):
+    """`dam-seismic modal pine_flat --set reservoir.level=94.5` prints the measured 0.288 s
+    (Rea, Liaw & Chopra 1972) beside our fundamental resonance with compressible water, and
+    modal.json keeps both; the period printed is 1 / the resonance reported (coarse mesh, rigid
+    base: the printing is under test, the full study is verification/pine_flat.py)."""
+    from ngs_driver.cli import main
+
+    argv = ["modal", "pine_flat", "--out", str(tmp_path), "--set", "reservoir.level=94.5",
+            "--set", "geometry.foundation='rigid'"]
+    for s in COARSE:
+        argv += ["--set", s]
+    assert main(argv) == 0
+    out = capsys.readouterr().out
+    d = json.loads((tmp_path / "modal.json").read_text())["reservoir"]
+    (m,) = d["measured"]
+    f = d["frequency_response"]["fundamental_resonance"]["compressible"]["f_hz"]
+    assert m["period_s"] == 0.288 and m["level_m"] == 94.5
+    assert m["ours"]["compressible"]["period_s"] == pytest.approx(1.0 / f, rel=1e-12)
+    assert (f"measured fundamental period 0.288 s (3.472 Hz; Rea, Liaw & Chopra 1972"
+            in out), out
+    assert f"ours {1.0 / f:.3f} s ({f:.3f} Hz" in out
+    # the model is softer than the dam (2D monolith, in-situ E: docs/real_dams.md), not stiffer
+    assert 1.0 < m["ours"]["compressible"]["period_over_measured"] < 1.8
+
+
+def test_modal_measured_only_at_a_test_level():
+    """No measurement is claimed for another water level (100 m is 5.5 m from the nearest
+    test) nor for another section."""
+    from ngs_driver.apps.modal import measured_comparison
+
+    fund = {"compressible": {"f_hz": 2.5}}
+    assert measured_comparison(load_scene("pine_flat", ["reservoir.level=100.0"]), fund) == []
+    assert measured_comparison(load_scene("koyna_1967"), fund) == []
+    (r,) = measured_comparison(load_scene("pine_flat", ["reservoir.level=105.2"]), fund)
+    assert r["period_s"] == 0.306 and r["ours"]["compressible"]["period_over_measured"] == \
+        pytest.approx(0.4 / 0.306, rel=1e-12)

@@ -71,10 +71,20 @@ def test_pine_flat_scene():
     sc = load_scene("pine_flat")
     assert sc.section.height == 121.92
     assert sc.reservoir.level == 116.19 and sc.reservoir.model == "acoustic"
-    assert sc.materials.plane == "strain"
+    assert sc.materials.plane == "stress"                  # EAGD-84's monolith
     assert sc.materials.dam.E == 22.75e9 and sc.materials.dam.nu == 0.2
-    assert sc.uplift.model == "drains"
-    assert load_scene("pine_flat", ["materials.plane=stress"]).materials.plane == "stress"
+    assert sc.uplift.model == "drains" and sc.uplift.in_crack == "zero"
+    assert sc.uplift.drain_x == pytest.approx(0.05 * 116.19, abs=0.005)   # EM 1110-2-2200
+    assert sc.ground_motion.record == "shipped:taft-1952-s69e"
+    assert sc.time.duration == 54.38                      # the whole record
+    assert load_scene("pine_flat", ["materials.plane=strain"]).materials.plane == "strain"
+    # the cracked-base study differs from it in the water in the crack alone (and its window)
+    cb = load_scene("pine_flat_cracked_base").to_dict()
+    pf = sc.to_dict()
+    diff = {f"{k}.{kk}" for k in pf if isinstance(pf[k], dict)
+            for kk in pf[k] if pf[k][kk] != cb[k].get(kk)}
+    assert diff <= {"uplift.in_crack", "time.duration", "output.dir"}, diff
+    assert cb["uplift"]["in_crack"] == "unchanged"
 
 
 # ------------------------------------------------------------------ plane stress / strain
@@ -248,7 +258,8 @@ def test_modal_names_the_fundamental_resonance_pine_flat(tmp_path):
     sc = load_scene("pine_flat", ["geometry.foundation=rigid", "mesh.h_heel=1.0",
                                   "mesh.heel_zone=0.0", "mesh.h_interface=6.0",
                                   "mesh.h_coarse=6.0", "mesh.growth=1.5",
-                                  "reservoir.length=250.0", "reservoir.h_max=10.0"])
+                                  "reservoir.length=250.0", "reservoir.h_max=10.0",
+                                  "materials.plane=strain"])
     md, res, _ = run_modal(sc, tmp_path, 3)
     d = json.loads((tmp_path / "modal.json").read_text())
     fr = d["reservoir"]["frequency_response"]
