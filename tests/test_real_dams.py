@@ -290,7 +290,19 @@ def test_verification_pine_flat_fast(tmp_path, study):
         assert f[fnd, "strain"] <= f["rigid", "strain"] + 1e-12   # a flexible base is softer
     for r in res["resonances"]:
         assert r["compressible_hz"] < r["incompressible_hz"] < r["none_hz"]
-    assert all(p["value"] is None for p in res["published"])
+    # the published numbers quoted are the measured periods and Samii & Lotfi's frequencies
+    # only; the reports that could not be read carry none
+    quoted = {p["source"].split(",")[0]: p["value"] for p in res["published"]}
+    assert quoted["Rea"] == [0.288, 0.306] and quoted["Samii & Lotfi (2007)"][0] == 2.5267
+    assert quoted["Fenves & Chopra"] is None and quoted["Salamon et al."] is None
+    # measured 0.288 s at 94.5 m: our 2D monolith on the file's rock is softer (longer period),
+    # a rigid base shortens it (full study: docs/real_dams.md, 1.49 -> 1.17 of the measured)
+    m = {r["variant"]: r for r in res["measured"]}
+    assert m["scene as shipped"]["ratio"] > m["rigid base"]["ratio"] > 1.0
+    assert m["plane strain (scene otherwise)"]["f_hz"] > m["scene as shipped"]["f_hz"]
+    # Samii & Lotfi's first coupled frequency with their parameters: within 5 % on the coarse
+    # mesh of the fast form (the default mesh gives 1.6 %: docs/validation.md)
+    assert res["samii_lotfi"]["stress"]["peaks_hz"][0] == pytest.approx(2.5267, rel=0.05)
 
 
 def test_koyna_1967_runs_with_its_neck_under_water(tmp_path):

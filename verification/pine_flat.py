@@ -4,7 +4,7 @@ published ones, with the difference and what differs in the models.
 Section, materials and full pool from the public input file INPUT-PF4-DAMRes.TXT (see
 ngs_driver/scenes/sections/pine_flat.csv). Published sources for this monolith:
 
-* Fenves & Chopra, EAGD-84 (UCB/EERC-84/10, 1984) and their journal papers (Earthquake Engng
+* Fenves & Chopra, EAGD-84 (UCB/EERC-84/11, 1984) and their journal papers (Earthquake Engng
   Struct. Dyn.): frequencies / periods and crest frequency responses, empty and full
   reservoir, rigid and flexible foundation (plane stress, infinite reservoir, absorbing bottom).
 * Rea, Liaw & Chopra, "Dynamic properties of Pine Flat dam", UCB/EERC-72/7 (1972): forced-
@@ -36,7 +36,7 @@ if str(HERE.parent) not in sys.path:
 # what each published source assumed, as far as the report titles and the issue state it; the
 # numbers themselves could not be read here
 PUBLISHED = [
-    {"source": "Fenves & Chopra, EAGD-84, UCB/EERC-84/10 (1984)",
+    {"source": "Fenves & Chopra, EAGD-84, UCB/EERC-84/11 (1984)",
      "quantity": "f1 empty, rigid base; f1 / fundamental resonance full, rigid and flexible base",
      "value": None,
      "model": "plane stress; 4-node quadrilaterals; infinite reservoir (analytical, compressible, "
