@@ -1,6 +1,7 @@
 """Ground-motion input for the seismic dam analysis (numpy only; no ngsolve, no scipy).
 
-Readers for two-column (t, a) text files and PEER NGA ``.AT2`` files, a uniform-step
+Readers for two-column (t, a) text files (``read_headed``: one whose header states its points,
+step and peak, checked against them), PEER NGA ``.AT2`` files, a uniform-step
 :class:`GroundMotion` container (m/s^2), resampling to the analysis step, polynomial
 baseline correction, trapezoid integration, a Newmark 5 %-damped response spectrum and the
 reproducible SYNTHETIC Koyna-like default record.
