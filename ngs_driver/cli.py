@@ -338,6 +338,13 @@ def cmd_modal(a) -> int:
                 f"{k} {v['f_hz']:.3f} Hz (x{v['amplitude']:.2f})"
                 for k, v in fr["global_max"].items())
                 + f"; wrote {', '.join(str(out / f) for f in fr['files'])}")
+        for m in rinfo.get("measured", []):          # docs/real_dams.md (Pine Flat)
+            ours = m["ours"].get("compressible") or m["ours"].get("incompressible")
+            print(f"measured fundamental period {m['period_s']:.3f} s ({m['f_hz']:.3f} Hz; "
+                  f"{m['source']}); ours "
+                  + (f"{ours['period_s']:.3f} s ({ours['f_hz']:.3f} Hz, "
+                     f"{100 * (ours['period_over_measured'] - 1):+.0f} %)" if ours else "none")
+                  + " -- docs/real_dams.md explains the difference")
     return 0
 
 

@@ -4,15 +4,17 @@ published ones, with the difference and what differs in the models.
 Section, materials and full pool from the public input file INPUT-PF4-DAMRes.TXT (see
 ngs_driver/scenes/sections/pine_flat.csv). Published sources for this monolith:
 
-* Fenves & Chopra, EAGD-84 (UCB/EERC-84/10, 1984) and their journal papers (Earthquake Engng
+* Fenves & Chopra, EAGD-84 (UCB/EERC-84/11, 1984) and their journal papers (Earthquake Engng
   Struct. Dyn.): frequencies / periods and crest frequency responses, empty and full
   reservoir, rigid and flexible foundation (plane stress, infinite reservoir, absorbing bottom).
 * Rea, Liaw & Chopra, "Dynamic properties of Pine Flat dam", UCB/EERC-72/7 (1972): forced-
   vibration tests of the real dam (resonant frequencies at the reservoir levels of the tests).
 * Salamon et al., ICOLD 15th Benchmark Workshop (2019), Theme A (Springer 2021).
 
-None of their numbers could be read from this machine (only the reports' title pages are
-reachable); the table says so rather than quote a number from memory. What is checked here:
+The reports themselves could not be read from this machine (only their title pages are
+reachable). Two sets of numbers are compared, as the issue (#31) and Chopra's textbook quote
+them: the measured fundamental periods (0.288 s with 94.5 m of water, 0.306 s with 105.2 m)
+and Samii & Lotfi's coupled frequencies (2.5267, 3.2681, 4.6665 Hz). What is checked besides:
 the idealisations against each other and under refinement, our f1 against an independent
 eigen-solution (scikit-fem on the same triangles), and the fundamental resonances that
 `dam-seismic modal` reports.
@@ -34,20 +36,26 @@ if str(HERE.parent) not in sys.path:
 # what each published source assumed, as far as the report titles and the issue state it; the
 # numbers themselves could not be read here
 PUBLISHED = [
-    {"source": "Fenves & Chopra, EAGD-84, UCB/EERC-84/10 (1984)",
+    {"source": "Fenves & Chopra, EAGD-84, UCB/EERC-84/11 (1984)",
      "quantity": "f1 empty, rigid base; f1 / fundamental resonance full, rigid and flexible base",
      "value": None,
      "model": "plane stress; 4-node quadrilaterals; infinite reservoir (analytical, compressible, "
               "absorbing bottom alpha); foundation a viscoelastic half-plane"},
-    {"source": "Rea, Liaw & Chopra, UCB/EERC-72/7 (1972), forced vibration tests",
-     "quantity": "resonant frequencies of the real dam at the test reservoir levels",
-     "value": None,
+    {"source": "Rea, Liaw & Chopra, UCB/EERC-72/7 (1972), forced vibration tests, as quoted "
+               "in Chopra, Dynamics of Structures, section 2.1",
+     "quantity": "fundamental period of the real dam, water 94.5 m / 105.2 m",
+     "value": [0.288, 0.306],
      "model": "the 3D dam on its real foundation, the reservoir level of the test day"},
     {"source": "Salamon et al., ICOLD 15th Benchmark Workshop (2019), Theme A",
      "quantity": "participants' f1 of the tallest non-overflow monolith (empty / full)",
      "value": None,
      "model": "as specified by the formulators (plane stress, massless foundation, "
               "reservoir per case)"},
+    {"source": "Samii & Lotfi (2007), reproduced in Gorai & Maity 2020 (Nat. Hazards), Table 3",
+     "quantity": "coupled dam-water frequencies, full reservoir, compressible, rigid base",
+     "value": [2.5267, 3.2681, 4.6665],
+     "model": "E 22.75 GPa, rho 2480, c 1440 m/s; plane and reservoir truncation as in the "
+              "paper (not read here)"},
 ]
 
 
@@ -146,11 +154,124 @@ def resonances(fast: bool, out: Path) -> list[dict]:
     return rows
 
 
+# measured fundamental periods (forced vibration; Rea, Liaw & Chopra, UCB/EERC-72/7, 1972, as
+# quoted in Chopra, Dynamics of Structures, section 2.1) -- the same table `modal` prints from
+MEASURED = [(94.5, 0.288), (105.2, 0.306)]
+# Samii & Lotfi (2007), coupled dam-water frequencies of Pine Flat, full reservoir, compressible
+# water, rigid base, E 22.75 GPa, rho 2480, c 1440 m/s (reproduced in Gorai & Maity 2020,
+# Natural Hazards, Table 3)
+SAMII_LOTFI_HZ = [2.5267, 3.2681, 4.6665]
+
+
+def _peaks(f, a, prominence=0.05):
+    """All local maxima of |a| on the grid at least ``prominence`` above their separating
+    minima, each refined by a parabola (fe.reservoir.resonance_peaks' rule, for every peak)."""
+    import numpy as np
+
+    from ngs_driver.fe.reservoir import resonance_peaks
+
+    out, i0 = [], 0
+    a = np.abs(np.asarray(a))
+    while i0 < a.size - 2:
+        r = resonance_peaks(f[i0:], a[i0:], prominence)["fundamental"]
+        if r is None:
+            break
+        out.append(r["f_hz"])
+        i0 = int(np.searchsorted(f, r["f_hz"])) + 2
+    return out
+
+
+def _first_resonance(sc, eta, fast, f_lo=1.0, f_hi=5.0):
+    """The first resonance of the crest response with compressible water [Hz]: a coarse grid,
+    then a fine one around the first peak (grid 0.002 Hz; the parabola refines further)."""
+    import numpy as np
+
+    from ngs_driver.fe.model import build_from_scene
+    from ngs_driver.fe.modal import k0_from_scene
+    from ngs_driver.fe.reservoir import frequency_response, resonance_peaks
+
+    md = build_from_scene(sc)
+    kn, kt = k0_from_scene(sc)
+    f = np.arange(f_lo, f_hi, 0.1 if fast else 0.05)
+    a = np.abs(frequency_response(md, kn, kt, f, eta, "compressible")[1])
+    r = resonance_peaks(f, a)["fundamental"]
+    if r is None:
+        return None, md
+    f2 = np.arange(r["f_hz"] - 0.12, r["f_hz"] + 0.12, 0.02 if fast else 0.004)
+    a2 = np.abs(frequency_response(md, kn, kt, f2, eta, "compressible")[1])
+    r2 = resonance_peaks(f2, a2)["fundamental"]
+    return (r2 or r)["f_hz"], md
+
+
+# each variant: label, --set keys (on top of the scene); every run also sets the water level
+VARIANTS = [
+    ("scene as shipped", []),
+    ("plane strain (scene otherwise)", ["materials.plane='strain'"]),
+    ("rigid base", ["geometry.foundation='rigid'"]),
+    ("massless rock", ["geometry.foundation='massless'"]),
+    ("rigid base, E x 1.5", ["geometry.foundation='rigid'", "materials.dam.E=34.125e9"]),
+    ("massed rock, E x 1.5 (dam and rock)", ["materials.dam.E=34.125e9",
+                                             "materials.rock.E=34.125e9"]),
+    ("massed rock, E x 2 (dam and rock)", ["materials.dam.E=45.5e9",
+                                           "materials.rock.E=45.5e9"]),
+]
+
+
+def measured_periods(fast: bool) -> list[dict]:
+    """Our first resonance (compressible water, hysteretic eta = 2 x the scene's damping ratio)
+    at the two test levels, per model variant, beside the measured periods."""
+    rows = []
+    variants = VARIANTS[:3] if fast else VARIANTS
+    for level, T in MEASURED[:1] if fast else MEASURED:
+        for label, sets in variants:
+            sc = _scene(sets + [f"reservoir.level={level}"], fast)
+            f, md = _first_resonance(sc, 2 * sc.damping.ratio, fast)
+            rows.append({"level_m": level, "measured_s": T, "variant": label, "sets": sets,
+                         "plane": sc.materials.plane, "foundation": sc.geometry.foundation,
+                         "E_dam": sc.materials.dam.E, "nfree": md.nfree,
+                         "f_hz": f, "period_s": (1.0 / f) if f else None,
+                         "ratio": (1.0 / f / T) if f else None})
+    return rows
+
+
+def samii_lotfi(fast: bool) -> dict:
+    """Coupled frequencies with Samii & Lotfi's parameters: full reservoir (116.19 m), rigid
+    base, E 22.75 GPa, rho 2480, c 1440, plane stress (and strain); light damping (eta 0.02) so
+    that the peaks sit at the coupled frequencies; rigid bottom (alpha = 1), radiating far end."""
+    import numpy as np
+
+    from ngs_driver.fe.model import build_from_scene
+    from ngs_driver.fe.modal import k0_from_scene
+    from ngs_driver.fe.reservoir import frequency_response
+
+    out = {}
+    cases = {"stress": ["materials.plane='stress'"]}
+    if not fast:        # what could differ in their model: the plane, the far end, the depth
+        cases |= {"strain": ["materials.plane='strain'"],
+                  "stress, rigid far end": ["materials.plane='stress'",
+                                            "reservoir.far_end='rigid'"],
+                  "stress, water at the crest (121.92 m)": ["materials.plane='stress'",
+                                                            "reservoir.level=121.92"]}
+    for plane, extra in cases.items():
+        sc = _scene(["geometry.foundation='rigid'", "materials.dam.E=22.75e9",
+                     "materials.dam.rho=2480.0", "reservoir.sound_speed=1440.0",
+                     "reservoir.bottom_reflection=1.0", "reservoir.level=116.19"] + extra,
+                    fast)
+        md = build_from_scene(sc)
+        kn, kt = k0_from_scene(sc)
+        f = np.arange(1.5, 5.2, 0.02 if fast else 0.01)
+        a = np.abs(frequency_response(md, kn, kt, f, 0.02, "compressible")[1])
+        out[plane] = {"peaks_hz": _peaks(f, a)[:6 if "far end" in plane else 3],
+                      "nfree": md.nfree}
+    return out
+
+
 def main(fast: bool = False, outdir=None) -> dict:
     out = Path(outdir if outdir is not None else OUT)
     out.mkdir(parents=True, exist_ok=True)
     res = {"fast": fast, "frequencies": frequencies(fast), "refinement": refinement(fast),
-           "resonances": resonances(fast, out), "published": PUBLISHED}
+           "resonances": resonances(fast, out), "published": PUBLISHED,
+           "measured": measured_periods(fast), "samii_lotfi": samii_lotfi(fast)}
     (out / "pine_flat.json").write_text(json.dumps(res, indent=2))
     L = ["# Pine Flat dam: natural frequencies and fundamental resonance", "",
          "Section, E = 22.75 GPa, nu = 0.2, 24.8 kN/m3 (dam), nu = 0.333, 26.4 kN/m3 (rock), full "
@@ -164,10 +285,13 @@ def main(fast: bool = False, outdir=None) -> dict:
             f"{fr['massless', 'stress']['f1_hz']:.3f} Hz (massless rock block 1 B)")
     length = _scene([], fast).reservoir.length
     for p in PUBLISHED:
-        L.append(f"| {p['source']} | {p['quantity']} | not readable from this machine | {ours} | "
-                 f"— | theirs: {p['model']}; ours: P1 triangles, rock block one base width "
+        val = ("not readable from this machine" if p["value"] is None else
+               ", ".join(f"{v:g}" for v in p["value"]) + " (sections 5, 6)")
+        L.append(f"| {p['source']} | {p['quantity']} | {val} | {ours} | "
+                 f"{'—' if p['value'] is None else 'sections 5, 6'} | theirs: {p['model']}; "
+                 f"ours: P1 triangles, rock block one base width "
                  f"with fixed sides, reservoir {length:g} m with a Sommerfeld end |")
-    L += ["", "No published number is quoted: none could be read here (only the title pages of "
+    L += ["", "No other published number is quoted: none could be read here (only the title pages of "
           "UCB/EERC-72/7, UCB/EERC-85/10 and PEER 2013/17 were reachable). A reader with the "
           "reports fills in the column; the rows below are what to compare with.", "",
           "## 2. f1, f2 with the reservoir empty", "",
@@ -192,6 +316,30 @@ def main(fast: bool = False, outdir=None) -> dict:
         L.append(f"| {r['plane']} | {r['alpha']:g} | {r['f1_dry_hz']:.3f} | "
                  + " | ".join(f"{r[k + '_hz']:.3f}" if r[k + "_hz"] else "none"
                               for k in ("none", "incompressible", "compressible")) + " |")
+    L += ["", "## 5. Measured fundamental periods beside ours (compressible water)", "",
+          "Rea, Liaw & Chopra (UCB/EERC-72/7, 1972; forced vibration tests; as quoted in "
+          "Chopra, Dynamics of Structures, section 2.1): 0.288 s with 94.5 m of water, 0.306 s "
+          "with 105.2 m. Ours: the first resonance of the crest acceleration with compressible "
+          "water (hysteretic eta = 2 x 5 %), `dam-seismic modal pine_flat --set "
+          "reservoir.level=94.5` for the scene as shipped.", "",
+          "| water [m] | model | E dam [GPa] | f [Hz] | T ours [s] | T measured [s] | "
+          "ours / measured |", "|---|---|---|---|---|---|---|"]
+    for r in res["measured"]:
+        L.append(f"| {r['level_m']:g} | {r['variant']} ({r['plane']}, {r['foundation']}) | "
+                 f"{r['E_dam'] / 1e9:.4g} | " + (f"{r['f_hz']:.3f} | {r['period_s']:.3f} | "
+                 f"{r['measured_s']:.3f} | {r['ratio']:.3f} |" if r["f_hz"] else
+                 "none | | | |"))
+    L += ["", "## 6. Samii & Lotfi (2007): coupled frequencies with their parameters", "",
+          "Full reservoir (116.19 m), compressible water c = 1440 m/s, rigid base, E = 22.75 "
+          "GPa, rho = 2480 kg/m3; theirs 2.5267, 3.2681, 4.6665 Hz (reproduced in Gorai & Maity "
+          "2020, Natural Hazards, Table 3). Ours: the first three peaks of the crest response "
+          "with light damping (eta = 0.02), rigid reservoir bottom, radiating far end.", "",
+          "| model | ours [Hz] | theirs [Hz] | ours / theirs |", "|---|---|---|---|"]
+    for plane, r in res["samii_lotfi"].items():
+        pk = r["peaks_hz"]
+        L.append(f"| {plane} | {', '.join(f'{v:.4f}' for v in pk)} | "
+                 f"{', '.join(f'{v:.4f}' for v in SAMII_LOTFI_HZ)} | "
+                 + ", ".join(f"{a / b:.4f}" for a, b in zip(pk, SAMII_LOTFI_HZ)) + " |")
     L += ["", "What differs from the published models: plane strain vs plane stress (section 2: "
           "plane stress is the published choice); the foundation (rigid, a massless or massed "
           "rock block of one base width with fixed sides here, a viscoelastic half-plane in "

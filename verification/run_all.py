@@ -16,8 +16,8 @@ ROOT = HERE.parent
 # in the order of the report; benchmarks (bench_koyna, write_benchmarks) run with `make bench`
 STUDIES = ["material_point", "damage_rate", "scaling_plots", "ground_motion_plot",
            "model_checks", "newmark_checks", "energy_balance", "dcb_study", "reservoir",
-           "safety_column", "koyna_studies", "damage_rate_koyna", "pine_flat", "sliding",
-           "koyna_records", "slammer", "unzip", "fuzz_edges"]
+           "safety_column", "koyna_studies", "damage_rate_koyna", "pine_flat",
+           "pine_flat_linear", "sliding", "koyna_records", "slammer", "unzip", "fuzz_edges"]
 
 
 def run_study(name: str, fast: bool, outdir):

@@ -1,6 +1,7 @@
 """Ground-motion input for the seismic dam analysis (numpy only; no ngsolve, no scipy).
 
-Readers for two-column (t, a) text files and PEER NGA ``.AT2`` files, a uniform-step
+Readers for two-column (t, a) text files (``read_headed``: one whose header states its points,
+step and peak, checked against them), PEER NGA ``.AT2`` files, a uniform-step
 :class:`GroundMotion` container (m/s^2), resampling to the analysis step, polynomial
 baseline correction, trapezoid integration, a Newmark 5 %-damped response spectrum and the
 reproducible SYNTHETIC Koyna-like default record.
@@ -33,6 +34,8 @@ __all__ = [
     "read_two_column",
     "read_three_column",
     "read_at2",
+    "read_headed",
+    "SHIPPED_DIR",
     "write_three_column",
     "combine",
     "resample",
@@ -55,6 +58,7 @@ MIN_POINTS = 3  # two intervals are needed to define dt and check that it is uni
 DT_RTOL = 1e-4  # default tolerance on dt uniformity, relative to dt (see read_two_column)
 
 DEFAULT_FILE = Path(__file__).resolve().parent.parent / "data" / "koyna_synthetic.txt"
+SHIPPED_DIR = DEFAULT_FILE.parent   # recorded motions shipped with their source (read_headed)
 
 
 # --------------------------------------------------------------------------------------------
@@ -350,6 +354,65 @@ def read_at2(path, component: str = "x") -> GroundMotion:
     ax, ay = (a, z) if component == "x" else (z, a)
     return GroundMotion(dt * np.arange(npts), ax, ay, dt, units=f"AT2 in g, x{G} -> m/s2", label=p.name,
                         synthetic=False, source=f"PEER AT2 file {p}; header: {' | '.join(s.strip() for s in lines[:3])}")
+
+
+_CLAIM_RE = re.compile(r"^#\s*(units|dt|npts|peak_g|peak_time)\s*:\s*(\S+)\s*$")
+#: a peak printed with k decimals is exact to half a unit of its last digit (the check allows
+#: that rounding and, for the float conversion of the bound itself, a relative 1e-9 more)
+PEAK_HEADER_RTOL = 1e-9
+
+
+def _decimals(tok: str) -> int:
+    return len(tok.split(".", 1)[1]) if "." in tok else 0
+
+
+def read_headed(path) -> GroundMotion:
+    """Read a two-column ``t  a`` record whose '#' header states what the data are
+    (``# units: g``, ``# dt: 0.02``, ``# npts: 2720``, ``# peak_g: 0.179``, optional
+    ``# peak_time: 3.70``) and refuse it when the values do not match: the number of points,
+    the step (to the printed digits), and the peak |a| (to half a unit of the header's last
+    printed digit) and its time. The shipped recorded motions (``ngs_driver/data``) are read
+    so: a file truncated, padded or edited shows up as a clear error, not as another record.
+    """
+    p, lines = _open_text(path, "record")
+    claims: dict[str, str] = {}
+    for ln in lines:
+        m = _CLAIM_RE.match(ln.strip())
+        if m:
+            claims[m.group(1)] = m.group(2)
+    missing = [k for k in ("units", "dt", "npts", "peak_g") if k not in claims]
+    if missing:
+        raise ValueError(f"record file {str(p)!r}: header lacks {', '.join('# ' + k + ':' for k in missing)}; "
+                         "a headed record states units, dt, npts and peak_g")
+    gm = read_two_column(p, claims["units"], "x")
+    where = f"record file {str(p)!r}"
+    try:
+        npts = int(claims["npts"])
+        dt = float(claims["dt"])
+        peak = float(claims["peak_g"])
+    except ValueError:
+        raise ValueError(f"{where}: header npts={claims['npts']!r}, dt={claims['dt']!r}, "
+                         f"peak_g={claims['peak_g']!r}: not numbers") from None
+    if gm.n != npts:
+        raise ValueError(f"{where}: the header says npts = {npts} but the file has {gm.n} data points "
+                         "(truncated or padded?); allowed: exactly the header's number")
+    half = 0.5 * 10.0 ** (-_decimals(claims["dt"]))
+    if abs(gm.dt - dt) > half:
+        raise ValueError(f"{where}: the header says dt = {claims['dt']} s but the times step by {gm.dt:.6g} s")
+    a_g = np.abs(gm.ax) / G        # m/s2 -> g, whatever the file's units
+    got = float(a_g.max())
+    half = 0.5 * 10.0 ** (-_decimals(claims["peak_g"]))
+    if abs(got - peak) > half * (1.0 + PEAK_HEADER_RTOL):
+        raise ValueError(f"{where}: the header says peak_g = {claims['peak_g']} but the largest |a| in the "
+                         f"file is {got:.6g} g (allowed: within {half:g} g, the header's printed digits)")
+    if "peak_time" in claims:
+        tp = float(claims["peak_time"])
+        tgot = float(gm.t[int(np.argmax(a_g))])
+        if abs(tgot - tp) > 0.5 * gm.dt:
+            raise ValueError(f"{where}: the header says the peak is at {claims['peak_time']} s but it is at "
+                             f"{tgot:.6g} s")
+    return replace(gm, label=p.stem, source=f"headed record {p.name} (npts {npts}, dt {dt:g} s, "
+                                            f"peak {got:.4g} g, as its header states)")
 
 
 def write_three_column(gm: GroundMotion, path, header: Sequence[str] = ()) -> Path:

@@ -6,6 +6,18 @@ from dataclasses import replace
 
 DEFAULT_RECORDS = ("synthetic", "default")
 FEMA_PREFIX = "fema-p695:"   # FEMA P695 record sets (PEER NGA), setup/fema_records.py
+SHIPPED_PREFIX = "shipped:"  # recorded motions in ngs_driver/data with a stating header
+SHIPPED_RECORDS = {          # name -> file in ngs_driver/data and what it is (docs/real_dams.md,
+    "taft-1952-s69e": {      # "Pine Flat record": identity checked against published figures)
+        "file": "pine_flat_taft_s69e.txt",
+        "meta": {"event": "Kern County, California, 21 July 1952",
+                 "station": "Taft, Lincoln School Tunnel", "component": "S69E",
+                 "pga_g": 0.179, "t_pga_s": 3.70, "npts": 2720, "dt_s": 0.02,
+                 "duration_s": 54.38,
+                 "source": "input/INPUT-PF4-DAMRes.TXT (function 5, 'EQ IN X-DIR') of "
+                           "github.com/NiliAbtahi/Modern-Fortran-Finite-Element-Analysis-for-"
+                           "Dam-Reservoir-Foundation-system- @65322095, MIT (c) 2025 NiliAbtahi"}},
+}
 
 
 
@@ -20,6 +32,16 @@ def load_ground_motion(scene):
         # PEER-processed records (filtered, baseline corrected by PEER): no second baseline
         from .fema_records import load_record
         gm = load_record(rec, vertical)
+    elif rec.startswith(SHIPPED_PREFIX):
+        # as the source printed it, checked against its header (no second baseline)
+        name = rec[len(SHIPPED_PREFIX):]
+        if name not in SHIPPED_RECORDS:
+            raise ValueError(f"ground_motion.record = {rec!r}: no shipped record {name!r}; "
+                             "allowed: " + ", ".join(repr(SHIPPED_PREFIX + k)
+                                                     for k in SHIPPED_RECORDS))
+        entry = SHIPPED_RECORDS[name]
+        gm = gmod.read_headed(gmod.SHIPPED_DIR / entry["file"])
+        gm = replace(gm, label=rec, meta=dict(entry["meta"]))
     elif rec in DEFAULT_RECORDS:
         gm = gmod.load_default()
     elif rec.startswith(gmod.PULSE_PREFIX):      # an analytic pulse on the run's own grid
@@ -30,7 +52,9 @@ def load_ground_motion(scene):
             raise ValueError(f"ground_motion.record = {rec!r}: no such file; allowed: "
                              f"{list(DEFAULT_RECORDS)} (the shipped SYNTHETIC record), "
                              f"'{FEMA_PREFIX}<set>:<record>:<a|b>' (FEMA P695 / PEER NGA, "
-                             "e.g. 'fema-p695:farfield:7:a') or a path "
+                             "e.g. 'fema-p695:farfield:7:a'), "
+                             f"{', '.join(repr(SHIPPED_PREFIX + k) for k in SHIPPED_RECORDS)} "
+                             "(shipped recorded motions) or a path "
                              "to a .AT2 / two-column (t a_x) / three-column (t a_x a_y) file")
         if p.suffix.lower() == ".at2":
             gm = gmod.read_at2(p, "x")
@@ -43,6 +67,9 @@ def load_ground_motion(scene):
                     break
             if ncol == 3:
                 gm = gmod.read_three_column(p, g.units)
+            elif any(ln.replace(" ", "").startswith("#npts:") for ln in
+                     p.read_text(encoding="utf-8", errors="replace").splitlines()):
+                gm = gmod.read_headed(p)         # its header states npts/dt/peak: checked
             else:
                 gm = gmod.read_two_column(p, g.units, "x")
         if g.baseline:
