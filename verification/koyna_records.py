@@ -33,8 +33,21 @@ if str(HERE.parent) not in sys.path:
 FEMA = [(4, "a"), (7, "a"), (15, "a")]
 MAX_DURATION = 30.0
 FAST_MESH = ["mesh.h_heel=1.0", "mesh.heel_zone=0.0", "mesh.h_interface=2.0",
-             "mesh.h_coarse=4.0", "mesh.growth=1.5", "reservoir.length=200.0",
-             "joints=[{name=\"neck\", elevation=66.5, h_end=1.0, h_joint=1.0}]"]
+             "mesh.h_coarse=4.0", "mesh.growth=1.5", "reservoir.length=200.0"]
+# the neck's own law (the scene's [[joints]] keys), kept when the fast form coarsens its mesh
+NECK_LAW = ("sigma_max", "tau_max", "G_I", "damage", "g_max", "friction", "scaling")
+
+
+def fast_mesh() -> list:
+    """FAST_MESH and the scene's neck with its element sizes coarsened and its law kept (a
+    ``joints`` override replaces the whole table: the base's law is not the neck's)."""
+    from ngs_driver.scene import load_scene
+
+    (neck,) = load_scene("koyna_1967").joints
+    law = ", ".join(f"{k}={str(v).lower() if isinstance(v, bool) else repr(v)}"
+                    for k, v in ((k, getattr(neck.interface, k)) for k in NECK_LAW))
+    return FAST_MESH + [f"joints=[{{name=\"{neck.name}\", elevation={neck.elevation!r}, "
+                        f"h_end=1.0, h_joint=1.0, {law}}}]"]
 
 
 def arias_duration(gm, frac=0.95, pad=2.0, cap=MAX_DURATION) -> float:
@@ -76,7 +89,7 @@ def run_case(sets, fast, outdir):
     from ngs_driver.apps.dam import run
     from ngs_driver.scene import load_scene
 
-    sc = load_scene("koyna_1967", (FAST_MESH if fast else []) + list(sets)
+    sc = load_scene("koyna_1967", (fast_mesh() if fast else []) + list(sets)
                     + ["output.checkpoint_every=0"])
     s = run(sc, outdir, progress=False, plots=False)
     j = s["joints"]
