@@ -10,6 +10,8 @@ import sys
 
 import pytest
 
+import compile_report
+
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 if str(ROOT) not in sys.path:       # verification/ importable by every test module
     sys.path.insert(0, str(ROOT))
@@ -65,6 +67,20 @@ def _share_scope_copy_in_numba_inlining():
 
 
 _share_scope_copy_in_numba_inlining()
+
+# opt-in: where a cold-cache run spends its compile time (tests/compile_report.py)
+if os.environ.get("NUMBA_COMPILE_LOG"):
+    compile_report.install(os.environ["NUMBA_COMPILE_LOG"])
+
+
+@pytest.hookimpl(tryfirst=True)
+def pytest_runtest_protocol(item, nextitem):
+    """The test file running in this process, for NUMBA_COMPILE_LOG (a no-op without it)."""
+    compile_report.file_started(item.nodeid.split("::")[0])
+
+
+def pytest_sessionfinish(session):
+    compile_report.finish()
 
 
 # The slowest files on a cold numba cache (a fresh clone, CI), the slowest first. Measured as
