@@ -137,10 +137,10 @@ def test_numba_matches_reference_random(dim):
     """~20 000 points over all 30 laws through the serial kernel plus one large batch through
     the parallel kernel; every branch is populated (checked). The serial loop is asked for by
     name: 700 points would pick the parallel one (PARALLEL_MIN_POINTS = 512), which runs the
-    same serial loop on one chunk here (CHUNK = 4096) but is a separate compilation per law
-    (~5 s each on a cold numba cache, 2 x 13 of them); the parallel path's own code (chunks,
-    views) is checked below on two chunks, and against the serial loop bit for bit in
-    test_law.py."""
+    same serial loop on one chunk here (CHUNK = 4096) but is a separate compilation per kind
+    of law (~2 CPU-s each on a cold numba cache, 2 x 11 of them); the parallel path's own
+    code (chunks, views) is checked below on two chunks, and against the serial loop bit for
+    bit in test_law.py."""
     rng = np.random.default_rng(1234 + dim)
     laws = list(all_laws(parallel=False))
     n = 700                                          # per law (30 laws)
