@@ -10,7 +10,8 @@ process appends JSON lines to ``<folder>/<pid>.jsonl``:
   (``getrusage``) while the file ran, and the wall seconds.
 
 A cache hit is not a compilation and is not logged. Subprocesses started by tests (the CLI
-tests) do not load this module; on a cold run they find their kernels in the cache already.
+and example tests) do not load this module: their compilations are not listed, their CPU is
+counted in their test file's (``RUSAGE_CHILDREN``).
 
 Measure (BENCHMARKS.md, "make test on a fresh clone"), then summarise::
 
