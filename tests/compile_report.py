@@ -18,15 +18,26 @@ Measure (BENCHMARKS.md, "make test on a fresh clone"), then summarise::
     d=$(mktemp -d); NUMBA_CACHE_DIR=$d/cache NUMBA_COMPILE_LOG=$d/log \\
         .venv/bin/python -m pytest -q --benchmark-disable -n 2 --dist loadfile tests
     .venv/bin/python tests/compile_report.py $d/log
+
+and the compile time of one loop, each kind of law and dim in fresh processes with an empty
+cache (``taskset -c 1`` keeps it on one core; medians of 3)::
+
+    taskset -c 1 .venv/bin/python tests/compile_report.py --kernels
 """
 import collections
 import json
 import os
 import re
 import resource
+import statistics
+import subprocess
 import sys
+import tempfile
 import threading
 import time
+
+import numpy as np
+from numba.core import event
 
 _state = {"dir": None, "file": "(start-up)", "cpu": 0.0, "wall": 0.0}
 _depth = threading.local()
@@ -46,9 +57,6 @@ def _write(rec):
 
 def install(logdir):
     """Log this process's numba compilations and per-file CPU into ``logdir``."""
-    # numba is imported here, not at the top: only the opt-in measurement needs its event API
-    from numba.core import event
-
     os.makedirs(logdir, exist_ok=True)
     _state.update(dir=logdir, cpu=_cpu(), wall=time.perf_counter())
 
@@ -160,5 +168,63 @@ def summary(logdir):
     return "\n".join(out)
 
 
+# ------------------------------------------------------- one loop in a fresh process -------
+_LAWS = ("cohesive only", "contact, friction, damage (fast)", "contact, friction, damage (general)")
+
+
+def _law(kind, parallel):
+    """The three kinds of law timed by :func:`kernels` (the test processes' inliner patch on)."""
+    # here, not at the top: conftest imports this module before it puts the checkout on
+    # sys.path; only the timing process needs the law (and conftest's inliner patch)
+    import conftest  # noqa: F401
+    from interfacelaw import (CohesiveParams, ContactParams, DamageParams, FrictionParams,
+                              InterfaceLaw)
+    coh = CohesiveParams(sigma_max=3.0e6, tau_max=2.0e6, l_Nc=1.0e-4, l_Tc=1.5e-4,
+                         lambda_max=0.3)
+    parts = {_LAWS[0]: (None, None, None),
+             _LAWS[1]: (ContactParams("linear"), FrictionParams(0.4), DamageParams(g_max=2e-4)),
+             _LAWS[2]: (ContactParams("rough"), FrictionParams(0.4),
+                        DamageParams(g_max=1.5e-4, alpha=2.0, beta=1.5, F_th=3e5))}[kind]
+    return InterfaceLaw(coh, *parts, parallel=parallel)
+
+
+def _time_one(kind, dim):
+    """CPU seconds of the first call (compile) of the serial loop, then of the parallel one
+    (its serial loop already compiled), in this process; the second call for comparison."""
+    out = []
+    for parallel in (False, True):
+        law = _law(kind, parallel)
+        gap, st = np.zeros((10, dim)), law.initial_state(10, dim)
+        c0 = time.process_time()
+        law.evaluate(gap, st)
+        c1 = time.process_time()
+        law.evaluate(gap, st)
+        out += [c1 - c0, time.process_time() - c1]
+    print(json.dumps(out))
+
+
+def kernels(repeats=3):
+    """Each kind of law and dim in fresh processes with an empty numba cache, medians."""
+    rows = ["| law | dim | serial loop: first call (CPU s) | parallel loop on top (CPU s) "
+            "| second call (ms) |", "|---|---|---|---|---|"]
+    for kind in _LAWS:
+        for dim in (2, 3):
+            runs = []
+            for _ in range(repeats):
+                with tempfile.TemporaryDirectory() as cache:
+                    env = dict(os.environ, NUMBA_CACHE_DIR=cache, NUMBA_NUM_THREADS="1")
+                    r = subprocess.run([sys.executable, __file__, "--time-one", kind, str(dim)],
+                                       env=env, capture_output=True, text=True, check=True)
+                    runs.append(json.loads(r.stdout.strip().splitlines()[-1]))
+            med = [statistics.median(r[i] for r in runs) for i in range(4)]
+            rows.append(f"| {kind} | {dim} | {med[0]:.2f} | {med[2]:.2f} | {med[1] * 1e3:.2f} |")
+    return "\n".join(rows)
+
+
 if __name__ == "__main__":
-    print(summary(sys.argv[1]))
+    if sys.argv[1] == "--time-one":
+        _time_one(sys.argv[2], int(sys.argv[3]))
+    elif sys.argv[1] == "--kernels":
+        print(kernels())
+    else:
+        print(summary(sys.argv[1]))
