@@ -10,6 +10,8 @@ import sys
 
 import pytest
 
+import compile_report
+
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 if str(ROOT) not in sys.path:       # verification/ importable by every test module
     sys.path.insert(0, str(ROOT))
@@ -66,14 +68,32 @@ def _share_scope_copy_in_numba_inlining():
 
 _share_scope_copy_in_numba_inlining()
 
+# opt-in: where a cold-cache run spends its compile time (tests/compile_report.py)
+if os.environ.get("NUMBA_COMPILE_LOG"):
+    compile_report.install(os.environ["NUMBA_COMPILE_LOG"])
 
-# The slowest files on a cold numba cache (a fresh clone, CI), the slowest first: they compile
-# most of the law's loops. Measured with make test on a cold cache (seconds on one worker, with
-# the scope copy above): reference 130, law 123, drivers 110, studies 78, examples 37,
-# damage_rate 36, cabi 32, cli 28, solver 22, pipeline 21; every other file <= 10.
-SLOWEST_FIRST = ("test_reference.py", "test_law.py", "test_drivers.py", "test_studies.py",
-                 "test_examples.py", "test_damage_rate.py", "test_cabi.py", "test_cli.py",
-                 "test_solver.py", "test_pipeline.py")
+
+@pytest.hookimpl(tryfirst=True)
+def pytest_runtest_protocol(item, nextitem):
+    """The test file running in this process, for NUMBA_COMPILE_LOG (a no-op without it)."""
+    compile_report.file_started(item.nodeid.split("::")[0])
+
+
+def pytest_sessionfinish(session):
+    compile_report.finish()
+
+
+# The slowest files on a cold numba cache (a fresh clone, CI), the slowest first. Measured as
+# CPU seconds per file on one worker (the worker's own CPU and its subprocesses', so not
+# inflated by other jobs on the machine; BENCHMARKS.md "make test on a fresh clone"): reference
+# 62, bench_speed2 45, law 44, studies 22, sliding 20, drivers 16, verify 13, cabi 9,
+# damage_rate 9, safe_runs 9, pipeline 8, unzip 8, solver_stall 8, examples 7, real_dams 7,
+# cli 6; every other file <= 5.
+SLOWEST_FIRST = ("test_reference.py", "test_bench_speed2.py", "test_law.py", "test_studies.py",
+                 "test_sliding.py", "test_drivers.py", "test_verify.py", "test_cabi.py",
+                 "test_damage_rate.py", "test_safe_runs.py", "test_pipeline.py",
+                 "test_unzip.py", "test_solver_stall.py", "test_examples.py",
+                 "test_real_dams.py", "test_cli.py")
 
 
 def pytest_collection_modifyitems(config, items):
