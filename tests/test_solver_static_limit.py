@@ -23,7 +23,7 @@ def test_static_passes_heel_crack_limit_loads(tmp_path):
     without ``_relax`` is the same (stagnation at 1/1024 of the load, residual ~3e-4)."""
     # plane strain: the case these limit loads were found and measured in (the scene's default
     # became plane stress with the Taft record; there the coarse mesh also debonds a toe point)
-    scene = load_scene("pine_flat", ["time.duration=0.02", "uplift.model=none",
+    scene = load_scene("pine_flat", ["time.duration=0.02", "uplift.model=none", "uplift.drain_x=0",
                                      "reservoir.model=none", "mesh.h_coarse=6",
                                      "mesh.growth=1.3", "materials.plane=strain"])
     a = prepare(scene, str(tmp_path / "out"), progress=False, outputs=RunOutputs(plots=False))
@@ -56,7 +56,7 @@ def test_static_without_equilibrium_says_the_dam_slides(tmp_path):
 
 
 def _pine_flat_limit(tmp_path, *extra):
-    scene = load_scene("pine_flat", ["time.duration=0.02", "uplift.model=none",
+    scene = load_scene("pine_flat", ["time.duration=0.02", "uplift.model=none", "uplift.drain_x=0",
                                      "reservoir.model=none", "mesh.h_coarse=6",
                                      "mesh.growth=1.3", "materials.plane=strain", *extra])
     return prepare(scene, str(tmp_path / "out"), progress=False, outputs=RunOutputs(plots=False))

@@ -113,7 +113,7 @@ def _unused(scene) -> str | None:
         key = "uplift" if i == 0 else f"joints[{i - 1}].uplift"
         return (f"{key}.drain_x = {up.drain_x!r} with {key}.model = {up.model!r}: the drain "
                 f"line is read only by model = 'drains' (it would be ignored); allowed: "
-                f"{key}.model = 'drains', or no drain_x")
+                f"{key}.model = 'drains', or no drain_x (--set {key}.drain_x=0)")
     if scene.ground_motion.scale == 0.0:
         return ("ground_motion.scale = 0.0: the record scaled to nothing (a run without ground "
                 "motion); allowed: (0, 100] (a static check: a small scale such as 1e-3 keeps "
