@@ -22,11 +22,19 @@ loop copies. The branches stay in the source: LLVM turns them into selects. The 
 splitting it into blocks across which registers spill: the fast loop is compiled per kind of
 law with those values as constants (:func:`code`, ``numba.literally``), which leaves one block.
 """
+import contextlib
 import math
+import os
+import tempfile
 
 import numpy as np
 
-from numba import literally, njit, prange
+from numba import config as numba_config, literally, njit, prange
+
+try:
+    import fcntl
+except ImportError:                      # pragma: no cover - not POSIX: no lock
+    fcntl = None
 
 # points per parallel chunk (a chunk is one vectorised serial loop)
 CHUNK = 4096
@@ -511,22 +519,52 @@ def evaluate_serial(gap, coh, contact, friction, damage, rdt, kappa, dmg, sep, s
 # while a kernel is compiled (its first call for a combination of the optional parts) and off
 # again; code compiled by others in between (another thread) would also be forced — harmless
 # (vectorisation never changes results without fast-math) but noted.
+#
+# The first call of a loop in a process (compiled, or loaded from numba's disk cache) holds an
+# exclusive lock shared by every process using the same cache (``cache_lock``). numba's cache
+# is not safe for processes that write new overloads of one function at the same time: each
+# reads the index, picks the first free data-file number and writes it, so two processes can
+# write different loops (the entries differ only in the law's code, a closure constant) under
+# one number, and the index then names the other process's machine code. A later process
+# loads the wrong loop: a segfault (seen: a verification sweep's two workers on a fresh
+# clone's cache, koyna with 1 256 points) or, where the layouts agree, wrong numbers. Held
+# once per loop and process, the lock costs nothing in a run.
 _compiled = set()
+LOCK_NAME = "interfacelaw-compile.lock"
+
+
+@contextlib.contextmanager
+def cache_lock():
+    """Exclusive lock on ``LOCK_NAME`` in numba's cache directory (NUMBA_CACHE_DIR, else the
+    temporary directory): one process at a time compiles or loads a loop."""
+    if fcntl is None:                    # pragma: no cover
+        yield
+        return
+    folder = numba_config.CACHE_DIR or tempfile.gettempdir()
+    os.makedirs(folder, exist_ok=True)
+    fd = os.open(os.path.join(folder, LOCK_NAME), os.O_RDWR | os.O_CREAT, 0o644)
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX)
+        yield
+    finally:
+        os.close(fd)                     # closing releases the lock
 
 
 def call(kern, key, *args):
-    """kern(*args), compiling it with the forced vector width on its first call for ``key``."""
+    """kern(*args), compiling it with the forced vector width on its first call for ``key``
+    (under ``cache_lock``)."""
     if (kern, key) in _compiled:
         return kern(*args)
     import llvmlite.binding as llvm
-    for opt, on, _ in _LLVM_OPTIONS:
-        llvm.set_option("", f"-{opt}={on}")
-    try:
-        return kern(*args)
-    finally:
-        for opt, _, default in _LLVM_OPTIONS:
-            llvm.set_option("", f"-{opt}={default}")
-        _compiled.add((kern, key))
+    with cache_lock():
+        for opt, on, _ in _LLVM_OPTIONS:
+            llvm.set_option("", f"-{opt}={on}")
+        try:
+            return kern(*args)
+        finally:
+            for opt, _, default in _LLVM_OPTIONS:
+                llvm.set_option("", f"-{opt}={default}")
+            _compiled.add((kern, key))
 
 
 # (option, value while compiling, LLVM's default restored after). The two thresholds: in 3D the

@@ -1,0 +1,42 @@
+"""The first call of a law's loop in a process holds a lock shared by every process using the
+same numba cache (interfacelaw/_kernels.py, ``cache_lock``): numba's cache lets two processes
+that write new overloads of one function at once name each other's machine code in its index
+(a verification sweep's two workers did: the next run loaded the wrong loop and segfaulted).
+No numba compile here: the loop is a plain Python stand-in, the lock is what is checked."""
+import threading
+import time
+
+from interfacelaw import _kernels
+
+
+def test_a_first_call_waits_for_the_cache_lock():
+    calls = []
+
+    def loop(x):                       # stands in for a compiled loop: records when it runs
+        calls.append(time.monotonic())
+        return x
+
+    held, release = threading.Event(), threading.Event()
+
+    def holder():                      # another process compiling: the same lock file
+        with _kernels.cache_lock():
+            held.set()
+            release.wait(5.0)
+        released.append(time.monotonic())
+
+    released = []
+    t = threading.Thread(target=holder)
+    t.start()
+    assert held.wait(5.0)
+    worker = threading.Thread(target=lambda: _kernels.call(loop, ("test", 1), 7))
+    worker.start()
+    time.sleep(0.3)
+    assert calls == [], "the first call ran while another holder had the compile lock"
+    release.set()
+    worker.join(5.0)
+    t.join(5.0)
+    assert len(calls) == 1 and calls[0] >= released[0]
+    # a second call of the same loop and key takes no lock (compiled in this process)
+    with _kernels.cache_lock():
+        assert _kernels.call(loop, ("test", 1), 8) == 8
+    assert len(calls) == 2
