@@ -70,7 +70,8 @@ GUARD_SPLITS = 6
 
 ENERGY_KEYS = ("W_ext", "E_kin", "E_bulk", "E_damp", "E_alg", "E_stored", "E_diss",
                "E_scaling", "residual")
-WATER_KEYS = ("W_water", "E_water_kin", "E_water_pot", "E_water_radiated", "E_water_absorbed")
+WATER_KEYS = ("W_water", "E_water_kin", "E_water_pot", "E_water_radiated", "E_water_absorbed",
+              "E_water_alg")
 
 
 def stored_energy(law, t, g, state) -> np.ndarray:
@@ -265,7 +266,8 @@ class EnergyBudget:
         if self.fluid is not None:              # the water's work and energies close it too
             wt = self.fluid.energy_terms()
             e_alg += wt["W_water"] - (wt["E_water_kin"] + wt["E_water_pot"]
-                                      + wt["E_water_radiated"] + wt["E_water_absorbed"])
+                                      + wt["E_water_radiated"] + wt["E_water_absorbed"]
+                                      + wt["E_water_alg"])
         row = {"W_ext": self.W_ext, "E_kin": kin - k0, "E_bulk": bulk - b0,
                "E_damp": self.E_damp, "E_alg": e_alg}
         for name, s, s_0, d, d_0 in zip(self.joints.names, stored, s0, diss, d0):
@@ -280,7 +282,8 @@ class EnergyBudget:
             row.update(wt)
             row["residual"] += wt["W_water"] - (wt["E_water_kin"] + wt["E_water_pot"]
                                                 + wt["E_water_radiated"]
-                                                + wt["E_water_absorbed"])
+                                                + wt["E_water_absorbed"]
+                                                + wt["E_water_alg"])
         if self.added_mass is not None:
             row["E_kin_added_mass"] = 0.5 * float(v @ (self.added_mass @ v))
         return row
