@@ -24,8 +24,9 @@ From the static state (t = 0) on, per metre of dam [J/m]:
 With compressible acoustic water (``fluid``: the fluid stepper's ``energy_terms``) the water's
 terms join the budget: the ground's work on the water W_water (an input) and the
 water's kinetic and potential energy, the energy radiated at the far end and absorbed at the
-bottom; residual = W_ext + W_water - (... + E_water_kin + E_water_pot + E_water_radiated +
-E_water_absorbed). Westergaard and incompressible water are added masses in M: their kinetic
+bottom, and (HHT, generalized alpha) E_water_alg, the work the scheme does on the water through
+the drift of its once-integrated rows (solve/fluid.py ``_book``); residual = W_ext + W_water -
+(... + E_water_kin + E_water_pot + E_water_radiated + E_water_absorbed + E_water_alg). Westergaard and incompressible water are added masses in M: their kinetic
 energy is inside E_kin already; ``E_kin_added_mass`` = 1/2 v.M_a v shows that part.
 
 For average-acceleration Newmark the kinetic, bulk and damping terms obey the identity
@@ -340,7 +341,10 @@ class EnergyGuard:
     the trapezoid that splits it between the two (at a rocking impact the residual gains
     2.4e3 J/m and E_alg loses as much: sliding_block rocking at 1.25 x its threshold). It
     decreases when a step makes more energy than its loads put in; the integrator's own
-    dissipation (generalized alpha, HHT) only increases it. A step is rejected when
+    dissipation (generalized alpha, HHT) only increases it. The water's share of the scheme's
+    exchange, E_water_alg (either sign, fixed by the scheme's algebra), is booked apart and
+    not in it (docs/solver.md §9.1: left in E_alg it stopped pine_flat at 2.97 s). A step is
+    rejected when
 
         jump > GUARD_FRACTION * work + GUARD_FLOOR * scale,
 
