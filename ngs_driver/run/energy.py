@@ -26,8 +26,9 @@ terms join the budget: the ground's work on the water W_water (an input) and the
 water's kinetic and potential energy, the energy radiated at the far end and absorbed at the
 bottom, and (HHT, generalized alpha) E_water_alg, the work the scheme does on the water through
 the drift of its once-integrated rows (solve/fluid.py ``_book``); residual = W_ext + W_water -
-(... + E_water_kin + E_water_pot + E_water_radiated + E_water_absorbed + E_water_alg). Westergaard and incompressible water are added masses in M: their kinetic
-energy is inside E_kin already; ``E_kin_added_mass`` = 1/2 v.M_a v shows that part.
+(... + E_water_kin + E_water_pot + E_water_radiated + E_water_absorbed + E_water_alg).
+Westergaard and incompressible water are added masses in M: their kinetic energy is inside
+E_kin already; ``E_kin_added_mass`` = 1/2 v.M_a v shows that part.
 
 For average-acceleration Newmark the kinetic, bulk and damping terms obey the identity
 W_ext = dE_kin + dE_bulk + E_damp + W_joints exactly per step (the trapezoid pairs with the
