@@ -255,7 +255,9 @@ class FluidStepper:
                 "energy": np.concatenate([self._V, self._acc,
                                           self._c0 if self._c0 is not None
                                           else np.zeros_like(self.p)]),
-                "energy_alg": np.array([self._alg])}
+                "energy_alg": np.array([self._alg]),
+                "energy_drift": (np.array(self._R, dtype=float) if self._R is not None
+                                 else np.zeros(0))}
 
     def restore(self, d):
         """The state ``state()`` returned (a checkpoint), energy accumulators included."""
@@ -266,7 +268,10 @@ class FluidStepper:
             self._V, self._acc, self._c0 = e[:2].copy(), e[2:5].copy(), e[5:].copy()
         if "energy_alg" in d:
             self._alg = float(np.asarray(d["energy_alg"]).ravel()[0])
-        self._R = None                         # formed from the restored state (``rhs``)
+        R = np.asarray(d.get("energy_drift", np.zeros(0)), dtype=float)
+        # the drift as followed (a resumed run goes on bitwise); an older checkpoint's: formed
+        # from the restored state (``rhs``)
+        self._R = R.copy() if R.size == self.p.size else None
 
 
 class GroundPressureLoad:
