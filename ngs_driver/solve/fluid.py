@@ -173,12 +173,12 @@ class FluidStepper:
         Q^T u'', Phi = C_f p' + H p + rho g a_g (the rows' terms), d_m = gamma - 1 + alpha_m,
         d_f = alpha_f - 1/2 (both alpha_f - 1/2 for HHT and generalized alpha). Summing the
         weighted rows and the Newmark relations over steps of one size h leaves R minus this
-        term constant (checked per step to the Newton tolerance); it is 0 for average
-        acceleration. A change of h shifts R by the difference of this term at that state."""
+        term constant (checked per step to the Newton tolerance). With Newmark the rows hold
+        at every step end, E'' + Phi = 0 there, and the term vanishes (beta = gamma / 2 for
+        average acceleration). A change of h shifts R by the difference of this term at
+        that state."""
         it, s, ac, W = self.solver.integrator, self.solver, self.ac, self.ac.W
         dm, df, db = it.gamma - 1.0 + it.alpha_m, it.alpha_f - 0.5, it.beta - 0.5 * it.gamma
-        if dm == 0.0 and df == 0.0 and db == 0.0:
-            return 0.0
         agx, agy = self.ground(s.time)
         e2 = W.G @ self.pdd + ac.rho * (ac.Q.T @ s.a)
         phi = (W.Cf @ self.pd + W.H @ self.p
