@@ -261,7 +261,8 @@ class FluidStepper:
 
     def restore(self, d):
         """The state ``state()`` returned (a checkpoint), energy accumulators included."""
-        self.p, self.pd, self.pdd = (np.array(d[k], dtype=float) for k in ("p", "pd", "pdd"))
+        self.p, self.pd = (np.array(d[k], dtype=float) for k in ("p", "pd"))
+        self.pdd = None if d["pdd"] is None else np.array(d["pdd"], dtype=float)  # None: at rest
         if "energy" in d:
             e = np.asarray(d["energy"], dtype=float)
             self.pi = np.array(d["pi"], dtype=float)
