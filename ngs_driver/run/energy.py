@@ -60,16 +60,16 @@ __all__ = ["EnergyBudget", "EnergyGuard", "stored_energy", "ENERGY_KEYS", "GUARD
 # GUARD_FRACTION of the work done in it plus GUARD_FLOOR of the run's energy scale is cut.
 # 0.5: on koyna_1967 (10 s, 2026-11-27) the largest ratio of created energy to work is 0.13
 # (t = 4.912 s: 7.0e3 J/m for 5.4e4 J/m, 0.21 of its limit), 99.9 % of the steps are below
-# 0.040; pine_flat (54.38 s) reaches 0.63 (t = 5.49 s: 2.6e3 J/m of 4.1e3 J/m, a quiet step
-# the floor passes), 99.9 % below 0.49, its largest jump 3.6e4 J/m (3.35 s) 0.69 of its limit;
-# the step of the re-pairing bug (koyna_1967, 3.642 s) created 7.5e9 J/m.
+# 0.040; pine_flat (54.38 s) 0.021 (t = 27.9 s), 99.9 % below 0.0052, its largest jump 163 J/m
+# (6.88 s) 0.0074 of its limit; the step of the re-pairing bug (koyna_1967, 3.642 s) created
+# 7.5e9 J/m, that of pine_flat's water stepped twice by the uplift's fixed point (2.97 s)
+# 2.1e3 J/m, 1.2 x its work.
 GUARD_FRACTION = 0.5
 # the floor keeps quiet steps (work ~ 0) from being cut for round-off and the joints'
 # stick-slip: 1e-3 of the scale (static strain energy, or the largest input work so far,
-# whichever is larger); koyna_1967 has no step whose jump exceeds 0.5 x its work, pine_flat 5
-# of 5438, by at most 1.1e-3 of the input work so far (t = 2.96 s: 1.45e3 J/m, work 2.6e3 J/m,
-# 1.2e5 J/m of input; the guard's scale, with the static strain energy, is larger); the bug's
-# 7.5e9 J/m is 700 times koyna_1967's scale
+# whichever is larger); neither koyna_1967 nor pine_flat has a step whose jump exceeds 0.5 x
+# its work (the floor passes none); the re-pairing bug's 7.5e9 J/m is 700 times koyna_1967's
+# scale
 GUARD_FLOOR = 1e-3
 # a step is retried in 2, 4, ... 2^GUARD_SPLITS uniform sub-steps before the run stops
 GUARD_SPLITS = 6
@@ -348,7 +348,8 @@ class EnergyGuard:
     decreases when a step makes more energy than its loads put in; the integrator's own
     dissipation (generalized alpha, HHT) only increases it. The water's share of the scheme's
     exchange, E_water_alg (either sign, fixed by the scheme's algebra), is booked apart and
-    not in it (docs/solver.md §9.1: left in E_alg it stopped pine_flat at 2.97 s). A step is
+    not in it; a water stepped otherwise (pine_flat's, stepped twice by the uplift's fixed
+    point until solver_snapshot held it, docs/solver.md §9.1) still shows. A step is
     rejected when
 
         jump > GUARD_FRACTION * work + GUARD_FLOOR * scale,

@@ -213,8 +213,8 @@ class FluidStepper:
         (h pm.C_f pm / rho) and the work of the ground on the water (the last two terms).
 
         HHT and generalized alpha satisfy the fluid rows at their weighted point only: the
-        once-integrated rows then hold up to a drift R (``_drift``; pine_flat at 2.96 s:
-        |R| = 158 against |H pi| ~ 1e3, measured zero to 1e-10 with Newmark), and the
+        once-integrated rows then hold up to a drift R (``_drift``; coarse Koyna, 1 s at
+        0.01 s: |R| up to 9e-4 against |H pi| 2.2, zero to 1e-10 with Newmark), and the
         identity gains the term dpi.(R_0 + R_1)/2 rho -- work the scheme, not the ground nor
         the dam, does on the water. It is booked as E_water_alg = -sum dpi.(R_0 + R_1)/2 rho
         (the water's share of the integrator's exchange; docs/solver.md §9.1)."""
