@@ -23,6 +23,7 @@ def solver_snapshot(solver) -> dict:
     be repeated from it bit for bit. Without the water's, a repeated step (the uplift's fixed
     point) stepped the water twice: pine_flat's energy guard stopped the run at 2.97 s."""
     ext = getattr(solver, "ext", None)
+    ext = ext if hasattr(ext, "state") and hasattr(ext, "restore") else None
     return {"u": solver.u.copy(), "v": solver.v.copy(), "a": solver.a.copy(),
             "f": None if solver.f is None else solver.f.copy(), "time": solver.time,
             "internals": solver.checkpoint_state(), "state": solver.state.copy(),
