@@ -2,6 +2,8 @@
 Newmark solver conserves energy; a run with the acoustic reservoir writes the pressure outputs."""
 import csv
 
+import json
+
 import numpy as np
 import pytest
 
@@ -134,6 +136,10 @@ def test_resume_with_compressible_water_is_exact(tmp_path):
     ua = np.load(tmp_path / "a" / "final_state.npz")["u"]
     ub = np.load(tmp_path / "b" / "final_state.npz")["u"]
     assert np.array_equal(ua, ub)
+    # the water's integrator term goes on from the drift the checkpoint kept: bitwise too
+    ea, eb = (json.loads((tmp_path / x / "summary.json").read_text())["energy"]["final"]
+              for x in "ab")
+    assert ea["E_water_alg"] == eb["E_water_alg"] and ea["E_alg"] == eb["E_alg"]
     assert not list((tmp_path / "b").glob("checkpoint*"))
 
 

@@ -114,6 +114,7 @@ def plot_energy(path, H, joints, title):
                    ("E_water_pot", "water: compression"),
                    ("E_water_radiated", "water: radiated (far end)"),
                    ("E_water_absorbed", "water: absorbed (bottom)"),
+                   ("E_water_alg", "water: integrator's exchange"),
                    ("E_kin_added_mass", "added mass: kinetic (in 'kinetic')")):
         if k in H and (k != "E_water_absorbed" or np.any(H[k] != 0)):
             ax.plot(t, H[k], lw=0.9, ls="-." if k.startswith("E_") else "-", label=lab)

@@ -17,11 +17,18 @@ from .store import atomic_write_bytes, atomic_write_text, json_text, npz_bytes
 
 
 def solver_snapshot(solver) -> dict:
-    """A copy of everything the solver has committed: u, v, a, f, time, the interface state
-    and the internals of ``checkpoint_state`` (a solve can be repeated from it bit for bit)."""
+    """A copy of everything the solver has committed: u, v, a, f, time, the interface state,
+    the internals of ``checkpoint_state`` and the state of its coupled water (``solver.ext``,
+    compressible acoustic water: p, p', p'' and its energy accumulators), so that a solve can
+    be repeated from it bit for bit. Without the water's, a repeated step (the uplift's fixed
+    point) stepped the water twice: pine_flat's energy guard stopped the run at 2.97 s."""
+    ext = getattr(solver, "ext", None)
+    ext = ext if hasattr(ext, "state") and hasattr(ext, "restore") else None
     return {"u": solver.u.copy(), "v": solver.v.copy(), "a": solver.a.copy(),
             "f": None if solver.f is None else solver.f.copy(), "time": solver.time,
-            "internals": solver.checkpoint_state(), "state": solver.state.copy()}
+            "internals": solver.checkpoint_state(), "state": solver.state.copy(),
+            "ext": None if ext is None else {k: None if v is None else np.array(v, copy=True)
+                                             for k, v in ext.state().items()}}
 
 
 def restore_solver(solver, snap) -> None:
@@ -31,6 +38,8 @@ def restore_solver(solver, snap) -> None:
     solver.time = snap["time"]
     solver.restore_state(snap["internals"])
     solver.state = snap["state"].copy()
+    if snap.get("ext"):                  # the coupled water's state ({} : nothing to restore)
+        solver.ext.restore(snap["ext"])
 
 
 def solver_arrays(solver) -> dict:

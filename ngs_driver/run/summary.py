@@ -86,7 +86,7 @@ def energy_summary(H, keys) -> dict:
             "definition": "residual = W_ext " + ("+ W_water " if water else "")
                           + "- (E_kin + E_bulk + E_damp + E_alg + E_stored + E_diss + E_scaling"
                           + (" + E_water_kin + E_water_pot + E_water_radiated + "
-                             "E_water_absorbed" if water else "")
+                             "E_water_absorbed + E_water_alg" if water else "")
                           + "), from the static state; docs/solver.md (energy budget), "
                             "docs/real_dams.md (water)"}
 
