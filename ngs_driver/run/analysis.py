@@ -462,18 +462,15 @@ class Analysis:
         return k < self.n_steps
 
     def _snapshot(self):
-        """What a step changes, to repeat it (the energy guard): the solver's committed state,
-        the water's, the uplift in force and the energy budget's accumulators."""
-        ext = getattr(self.solver, "ext", None)
-        return (solver_snapshot(self.solver), self.uplift.field.p,
-                None if ext is None else ext.state(), self.energy.state())
+        """What a step changes, to repeat it (the energy guard): the solver's committed state
+        with its coupled water's (``solver_snapshot``), the uplift in force and the energy
+        budget's accumulators."""
+        return (solver_snapshot(self.solver), self.uplift.field.p, self.energy.state())
 
     def _restore(self, snap):
-        sv, p, fluid, budget = snap
+        sv, p, budget = snap
         restore_solver(self.solver, sv)
         self.uplift.field.p = p
-        if fluid:
-            self.solver.ext.restore(fluid)
         self.energy.restore(budget)
 
     def _static_loads(self):
