@@ -349,13 +349,13 @@ def cmd_modal(a) -> int:
 
 
 def cmd_verify(a) -> int:
-    sys.path.insert(0, str(ROOT / "verification"))
-    try:
-        import run_all
-    except ImportError:
+    """The studies of a source checkout, in their own process (as ``make verify``): the
+    installed command does not put the checkout's ``verification/`` on its own import path."""
+    script = ROOT / "verification" / "run_all.py"
+    if not script.exists():
         return _err("verify: verification/run_all.py not found (run from a source checkout)", 1)
     argv = (["--fast"] if a.fast else []) + (["--out", a.out] if a.out else [])
-    return int(run_all.main(argv) or 0)
+    return subprocess.call([sys.executable, str(script), *argv], cwd=str(ROOT))
 
 
 def cmd_bench(a) -> int:
