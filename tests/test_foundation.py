@@ -9,7 +9,7 @@ import pytest
 
 pytest.importorskip("ngsolve")
 
-from ngs_driver.fe.foundation import massless_dofs  # noqa: E402
+from ngs_driver.solve.massless import massless_dofs  # noqa: E402
 from ngs_driver.solve.massless import initial_acceleration  # noqa: E402
 from ngs_driver.fe.modal import k0_from_scene, modal_analysis  # noqa: E402
 from ngs_driver.fe.model import build_from_scene  # noqa: E402

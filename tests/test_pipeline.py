@@ -104,7 +104,7 @@ NEVER_IMPORTS = {
     "section": ("fe", "solve", "run", "post", "studies", "setup", "apps"),
     "setup": ("studies", "run", "fe", "solve", "post", "apps"),
     "fe": ("solve", "run", "post", "studies", "apps"),
-    "solve": ("run", "post", "studies", "apps"),
+    "solve": ("fe", "run", "post", "studies", "apps"),   # matrices and masks, not the model
     "run": ("post", "studies", "apps"),
     "post": ("solve", "studies", "apps"),
     "apps": ("studies",),

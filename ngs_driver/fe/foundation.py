@@ -1,8 +1,7 @@
-"""Foundation models (docs/safety.md): the massless rock's DOFs and Lysmer-Kuhlemeyer
-viscous boundaries.
+"""Foundation models (docs/safety.md): Lysmer-Kuhlemeyer viscous boundaries. (The massless
+rock block's DOFs, the zero rows of M, are a matrix fact the solver finds itself:
+``solve.massless.massless_dofs``.)
 
-* ``massless_dofs(M)``: free DOFs without mass (zero rows of M: the massless rock block; their
-  start-up acceleration is ``solve.massless.initial_acceleration``).
 * ``dashpot_matrix(...)``: C_LK = integral over boundaries of rho (c_P n n^T + c_S t t^T) u . v,
   the Lysmer & Kuhlemeyer (1969) viscous boundary, to be added to the damping matrix.
 """
@@ -13,12 +12,7 @@ import math
 import numpy as np
 import scipy.sparse as sp
 
-__all__ = ["massless_dofs", "wave_speeds", "dashpot_matrix", "AbsorbingRock"]
-
-
-def massless_dofs(M) -> np.ndarray:
-    """Bool mask of the DOFs whose row of M is zero."""
-    return np.asarray(abs(sp.csr_matrix(M)).sum(axis=1)).ravel() == 0.0
+__all__ = ["wave_speeds", "dashpot_matrix", "AbsorbingRock"]
 
 
 def _lame(E: float, nu: float, plane: str = "strain") -> tuple[float, float]:

@@ -259,8 +259,7 @@ class Analysis:
         t_static = time.perf_counter() - t
         ax0, ay0 = self.ax[0], self.ay[0]
         if scene.geometry.foundation == "massless":      # M singular on the rock
-            from ..fe.foundation import massless_dofs
-            from ..solve.massless import initial_acceleration
+            from ..solve.massless import initial_acceleration, massless_dofs
             initial_acceleration(solver, self.f_static - self.Mrx * ax0 - self.Mry * ay0,
                                  massless_dofs(self.model.M), self.damping["a1"])
         else:

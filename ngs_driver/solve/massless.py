@@ -9,7 +9,12 @@ import scipy.sparse as sp
 from .joint_laws import initial_stiffness
 from .sparse import SparseFactor
 
-__all__ = ["initial_acceleration"]
+__all__ = ["initial_acceleration", "massless_dofs"]
+
+
+def massless_dofs(M) -> np.ndarray:
+    """Bool mask of the DOFs whose row of M is zero (the massless rock block)."""
+    return np.asarray(abs(sp.csr_matrix(M)).sum(axis=1)).ravel() == 0.0
 
 
 def initial_acceleration(solver, f, massless, a1: float):

@@ -1157,12 +1157,11 @@ class NewmarkSolver:
         """The start-up acceleration of a relaxation: M^-1 of the residual, or, when M vanishes
         on some DOFs (a massless rock block: M is singular), ``solve.massless`` on them; the
         damping's stiffness part acts there iff C has a diagonal on them (Rayleigh a1 > 0)."""
-        from ..fe.foundation import massless_dofs
+        from .massless import initial_acceleration, massless_dofs
         massless = massless_dofs(self.M)
         if not massless.any():
             self.initial_acceleration(f)
             return
-        from .massless import initial_acceleration
         stiff = self.C is not None and bool(np.any(self.C.diagonal()[massless] != 0.0))
         initial_acceleration(self, f, massless, 1.0 if stiff else 0.0)
 
