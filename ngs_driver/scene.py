@@ -133,7 +133,7 @@ class Time:
                          doc="stop (verdict undetermined: the model's range) when the mean "
                              "slip of a joint passes this [m]; alias time.stop_slip (0 there: "
                              "1e4 m, no limit)")
-    # hi: run.stopping.MAX_ROTATION_SUPPORTED (the linearised rotation's stretch theta^2/2)
+    # hi: run.collapse.MAX_ROTATION_SUPPORTED (the linearised rotation's stretch theta^2/2)
     max_rotation: float = _f(0.05, lo=0.0, hi=0.1, lo_open=True,
                              doc="stop (verdict undetermined: the model's range) when the "
                                  "rotation of the block above a joint passes this [rad]; at "

@@ -191,7 +191,7 @@ SCENES = [
      r"time.rho_inf = 0.3 with time.integrator = 'hht': out of range, allowed \[0.5, 1\]"),
     (["time.max_slip=0"], r"time.max_slip = 0.0: out of range, allowed \(0.0, 10000.0\]"),
     (["time.max_rotation=0"], r"time.max_rotation = 0.0: out of range, allowed \(0.0, 0.1\]"),
-    # past the small-rotation kinematics (run.stopping.MAX_ROTATION_SUPPORTED)
+    # past the small-rotation kinematics (run.collapse.MAX_ROTATION_SUPPORTED)
     (["time.max_rotation=0.2"], r"time.max_rotation = 0.2: out of range, allowed \(0.0, 0.1\]"),
     (["time.max_rotation=-0.1"], r"time.max_rotation = -0.1: out of range"),
     (["time.stop_slip=-1"], r"time.stop_slip = -1: out of range, allowed \[0, 10000\] m \(alias "

@@ -378,7 +378,7 @@ def test_verification_koyna_records_fast(tmp_path, study):
     no step had to be cut)."""
     import json
 
-    from ngs_driver.run.stopping import VERDICTS
+    from ngs_driver.run.collapse import VERDICTS
     from ngs_driver.setup.records import load_ground_motion
 
     rows = study("koyna_records").main(fast=True, outdir=tmp_path)

@@ -58,7 +58,7 @@ def test_damping_work_from_the_budget_products():
                 assert rs[k] == rd[k], k
     # a restored budget continues with the same products (bitwise restart)
     again = _budgets(np.random.default_rng(3))[0]
-    again.restore(split.state())
+    again.restore(split.checkpoint())
     assert all(np.array_equal(x, y) for x, y in zip(again._prods, split._prods))
 
 
@@ -133,7 +133,7 @@ def test_history_buffer_grows_and_round_trips():
     for k in keys:
         assert np.array_equal(A[k], np.asarray([r[k] for r in rows], dtype=float))
     assert np.array_equal(h.cols["x"], A["x"])
-    h2 = History.from_arrays({f"hist_{k}": v for k, v in A.items()}, keys)
+    h2 = History.from_arrays(A, keys)
     h2.append(step=7, t=0.7, x=1.0)
     assert len(h2) == 8 and np.array_equal(h2.arrays()["t"][:7], A["t"])
     assert History(keys).arrays()["t"].shape == (0,)

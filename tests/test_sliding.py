@@ -164,7 +164,7 @@ def test_rotation_past_max_rotation_is_undetermined_and_sliding_off_is_a_collaps
     joint whose mean slip reaches the joint's length: "sliding off", a collapse (a rule-level
     check: the rule's own measures, no run)."""
     from ngs_driver.apps.dam import run
-    from ngs_driver.run.stopping import CollapseRule
+    from ngs_driver.run.collapse import CollapseRule
     from ngs_driver.scene import load_scene
     A = 1.25 * (2.0 / 10.0)
     sets = ["geometry.profile=[[0,0],[4.0,0],[4.0,20.0],[0,20.0]]", "interface.friction=2.0",

@@ -189,8 +189,8 @@ BREAKDOWN = (
     ("ngs_driver.run.joints:Joints", "scan", "bookkeeping: joint scan"),
     ("ngs_driver.run.joints:Joints", "measures", "bookkeeping: joint measures"),
     ("ngs_driver.run.safety:SlidingSafety", "step_measures", "bookkeeping: sliding safety"),
-    ("ngs_driver.run.sliding:JointPairing", "update", "bookkeeping: pairing check"),
-    ("ngs_driver.run.stopping:CollapseRule", "check", "bookkeeping: collapse rule"),
+    ("ngs_driver.run.pairing:JointPairing", "update", "bookkeeping: pairing check"),
+    ("ngs_driver.run.collapse:CollapseRule", "check", "bookkeeping: collapse rule"),
     ("ngs_driver.run.history:History", "append", "bookkeeping: history"),
 )
 

@@ -35,30 +35,43 @@ PNGs, optional VTK); ``apps.dam.run`` is the whole run with those.
 """
 from __future__ import annotations
 
+import dataclasses
 import pathlib
 import time
 
 import numpy as np
 from numba import njit
 
-from .store import atomic_savez, atomic_write_json, environment_info
+from ..fe.foundation import AbsorbingRock
+from ..fe.loads import tailwater_load
+from ..fe.model import build_from_scene
+from ..fe.modal import k0_from_scene, modal_analysis
 from ..setup import FORMULATION, characteristic_times, law_parts, validate, window_note
+from ..solve.integrator import Integrator
 from ..solve.joint_laws import initial_stiffness, law_stiffness
+from ..solve.massless import initial_acceleration, massless_dofs
+from ..solve.newmark import NewmarkSolver, SolverError
 from . import summary as sm
-from .checkpoint import (Checkpointer, interface_state, restore_solver, restore_solver_arrays,
-                         resume_difference, solver_arrays, solver_snapshot)
+from .checkpoint import (Checkpointer, CheckpointStep, SolverPart, format_error,
+                         resume_difference)
+from .collapse import CollapseRule
 from .damping import damping_matrix, low_rank_damping, modes_to_compute, rayleigh_damping
 from .energy import GUARD_SPLITS, EnergyBudget, EnergyGuard
 from .folder import (FolderError, FolderLock, clean_temporaries, finished_files, probe_writable,
                      reuse_error)
-from .history import HIST_KEYS, History, Snapshots, results_from_history
-from .joints import Joints
+from .history import (HIST_KEYS, HeelOpening, Snapshots, StepHistory,
+                      results_from_history)
+from .joints import Joints, SizeScale
 from .outputs import Outputs
+from .pairing import JointPairing
+from .parts import StepContext, join_checkpoint, split_checkpoint
 from .post_earthquake import PostEarthquakeCheck
+from .progress import OutputsStep, Progress
+from .reservoir import ReservoirRun
 from .safety import FS_DEFINITION, SlidingSafety
+from .screening import Screening
 from .statics import solve_pre_earthquake
-from .sliding import JointPairing
-from .stopping import CollapseRule
+from .store import atomic_savez, atomic_write_json, environment_info
 from .uplift import Uplift
 
 __all__ = ["prepare", "Analysis", "seismic_load"]
@@ -76,8 +89,6 @@ def seismic_load(f_static, Mrx, Mry, ax, ay):
 def make_solver(scene, model, C, law, C_lowrank=None):
     """The condensed solver of the scene's [time] (integrator) and [solver] keys; C_lowrank:
     the low-rank part of the damping (``run.damping.low_rank_damping``)."""
-    from ..solve.integrator import Integrator
-    from ..solve.newmark import NewmarkSolver
     ts, sv = scene.time, scene.solver
     integrator = Integrator.make(ts.integrator, rho_inf=ts.rho_inf, beta=ts.newmark_beta,
                                  gamma=ts.newmark_gamma)
@@ -91,6 +102,9 @@ def _restart(scene, out, ckp, scene_d):
     """(meta, arrays) of the checkpoint in ``out``; ValueError naming the first key whose
     value differs when the checkpoint was written for another scene."""
     meta, arrs = ckp.load()          # FileNotFoundError / CheckpointDamaged, clear messages
+    why = format_error(meta, out)
+    if why is not None:
+        raise ValueError(why)
     diff = resume_difference(meta.get("scene") or {}, scene_d)
     if diff is not None:
         raise ValueError(f"--resume: the checkpoint in {out} was written for a different "
@@ -110,10 +124,10 @@ class Analysis:
     ``run.folder.FolderLock``, released by ``finish`` or ``release()``), ``previous_files``
     (the files of the finished run this one replaces, or None)."""
 
+    name = "run"              # its own share of a checkpoint (``checkpoint``)
+
     def __init__(self, scene, out, gm, model, checkpoints, restart, *, progress, outputs, log,
                  t0, t_build):
-        from ..fe.modal import k0_from_scene, modal_analysis
-
         self.scene, self.out, self.gm, self.model = scene, out, gm, model
         self.progress, self.log = progress, log
         self.outputs = outputs if outputs is not None else Outputs()
@@ -130,17 +144,14 @@ class Analysis:
         iface = model.interface
         self.joints = joints = Joints(scene, iface)
         self.uplift = Uplift(scene, iface, joints)
-        self.safety = SlidingSafety(joints)
+        self.safety = SlidingSafety(joints, pressure=lambda: self.uplift.p)
         self.absorbing = None                # fe.foundation.AbsorbingRock
         if scene.geometry.rock_sides == "absorbing":
-            from ..fe.foundation import AbsorbingRock
             self.absorbing = AbsorbingRock(model, scene.materials.rock, gm,
                                            scene.ground_motion.start)
         self.screening = None
         if scene.screening.enabled:
-            from .screening import Screening
             self.screening = Screening(scene, model)
-        from ..fe.loads import tailwater_load
         u = scene.uplift
         f_tail = tailwater_load(model, u.tailwater, scene.loads.water_density,
                                 scene.loads.gravity)
@@ -168,9 +179,6 @@ class Analysis:
             st0 = solver.state.copy()
             st0.kappa[cracked] = 1.0
             solver.set_state(st0)
-        # finite sliding: the joints that slide on a deformable face are paired anew
-        self.pairing = JointPairing(model, joints.slices, joints.names, model.interface.B,
-                                    scene.solver.pairing_tolerance)
 
         # ---- the record on the time grid, the loads ---------------------------------------------
         ts = scene.time
@@ -180,10 +188,9 @@ class Analysis:
         Mrx, Mry = model.M @ model.r_x, model.M @ model.r_y
         self.reservoir = None
         if getattr(model, "reservoir", None) is not None:   # hydrodynamics (fe/reservoir.py)
-            from .reservoir import ReservoirRun
             Mrx, Mry = model.reservoir.seismic_vectors(Mrx, Mry)
-            self.reservoir = ReservoirRun.create(model, scene, solver, self.times, self.ax,
-                                                 self.ay, restart, out)
+            self.reservoir = ReservoirRun.create(model, solver, self.times, self.ax, self.ay,
+                                                 total=self.absorbing is not None)
         self.f_base = model.f_gravity + model.f_water + (np.zeros(model.nfree) if f_tail is None
                                                          else f_tail)
         if self.absorbing is not None:       # total displacements: the record enters as
@@ -191,6 +198,7 @@ class Analysis:
         self.Mrx, self.Mry = Mrx, Mry
         self.f_reaction = np.zeros(model.nfree)   # support reactions (absorbing rock)
         self.f_static = None
+        self.u_static = None
         self.chars = characteristic_times(scene, joints.reference[0].cohesive.l_Nc)
         # C = a0 M + a1 K (+ dashpots): the budget's damping work needs no product with C
         self.energy = EnergyBudget(
@@ -200,23 +208,43 @@ class Analysis:
             fluid=None if self.reservoir is None else self.reservoir.stepper,
             added_mass=getattr(getattr(model, "reservoir", None), "added_mass", None),
             C_lowrank=self.low_damping)
+        self.guard = EnergyGuard(fraction=scene.solver.energy_guard)
         # the wall time stays the last column (everything before it is deterministic)
         self.history_keys = (list(HIST_KEYS[:-1]) + joints.history_keys()
                              + self.safety.history_keys() + self.energy.keys() + ["wall"])
-        self.stop_rule = CollapseRule(model, joints, ts.max_slip, ts.max_rotation)
         self.collapse = None
         self.undetermined = None             # the stop entry when the model's range was left
         self.window_note = window_note(scene, gm)
-        self.snapshots = Snapshots(self.n_steps, scene.output.snapshots)
-        self.history = None
         self.static_info = None
         self.stopped = None
         self.k = 0
         self.resumed_from = None
-        self._bar = None
         self._t_loop = None
         self._wall_before = 0.0
-        self._n_cuts, self._n_cuts_at = 0, 0
+
+        # ---- the parts of a step, in their order (run.parts): after each step each does its
+        # job; a checkpoint is each part's checkpoint(), a resume each part's restore()
+        self.solver_part = SolverPart(solver)
+        # finite sliding: the joints that slide on a deformable face are paired anew
+        self.pairing = JointPairing(model, joints.slices, joints.names, iface.B,
+                                    scene.solver.pairing_tolerance, solver=solver)
+        self.pairing.on_repair += [
+            lambda s: self._operator_changed(),
+            # an opened point's gap jumps by OPEN_GAP with no motion: no work is booked
+            lambda s: self.energy.rebase_gap(s.operator_gap())]
+        self.size_scale = SizeScale(joints, solver, self.energy)
+        self.snapshots = Snapshots(self.n_steps, scene.output.snapshots)
+        self._history = StepHistory(self.history_keys, model.crest_dofs)
+        self.heel_opening = HeelOpening(joints.slices[0])
+        self.stop_rule = CollapseRule(model, joints, ts.max_slip, ts.max_rotation)
+        self.progress_bar = Progress(progress, self.n_steps,
+                                     f"{scene.name} a={scene.interface.alpha:g}", self._history)
+        self.parts = [p for p in (
+            self.solver_part, self.uplift, self.screening, self.reservoir, joints, self.safety,
+            self.energy, self._history, self.guard, self.size_scale, self.pairing,
+            self.snapshots, OutputsStep(self), self.progress_bar, self.heel_opening,
+            self.stop_rule, CheckpointStep(checkpoints, self._checkpoint, solver))
+            if p is not None]
         if progress:
             c = self.chars
             log(f"[{scene.name}] nfree {model.nfree}, joints {', '.join(joints.names)} "
@@ -227,22 +255,24 @@ class Analysis:
             if self.window_note:
                 log(f"[{scene.name}] note: {self.window_note}")
 
+    @property
+    def history(self):
+        """The per-step ``History`` (None before ``static()``)."""
+        return self._history.history
+
+    @property
+    def heel(self) -> dict:
+        """The state of the largest heel opening while the base holds: {u, t, open}."""
+        h = self.heel_opening
+        return {"u": h.u, "t": h.t, "open": h.open}
+
     def _modal_model(self):
         """The model the modal analysis sees: with absorbing (unsupported) rock boundaries,
         the static support springs (the dashpots have no stiffness)."""
         if self.absorbing is None:
             return self.model
-        import dataclasses
         return dataclasses.replace(self.model,
                                    K=(self.model.K + self.absorbing.K_support).tocsr())
-
-    def _update_laws(self, state, book_energy=True, scan=None):
-        """Size-scale update of every joint's law from its failed length (paper §2)."""
-        old = list(self.joints.laws)
-        if self.joints.update(state, scan):
-            self.solver.set_law(self.joints.solver_law())
-            if book_energy:
-                self.energy.law_update(old, self.solver.g, state)
 
     # ------------------------------------------------------------------ static state
     def static(self) -> dict:
@@ -259,7 +289,6 @@ class Analysis:
         t_static = time.perf_counter() - t
         ax0, ay0 = self.ax[0], self.ay[0]
         if scene.geometry.foundation == "massless":      # M singular on the rock
-            from ..solve.massless import initial_acceleration, massless_dofs
             initial_acceleration(solver, self.f_static - self.Mrx * ax0 - self.Mry * ay0,
                                  massless_dofs(self.model.M), self.damping["a1"])
         else:
@@ -284,54 +313,34 @@ class Analysis:
             "joints": self.safety.static_measures(solver, self.uplift.p),
         }
         self.timings["static"] = t_static
-        self.history = History(self.history_keys)
+        self._history.start()
         self.snapshots.take(0, 0.0, solver)
-        # Fig. 12 shows the state of the largest heel opening while the base still holds
-        self.heel = {"u": self.u_static.copy(), "t": 0.0, "open": float(solver.g[0, 0])}
+        self.heel_opening.start(self.u_static, solver.g[0, 0])
         self.energy.start(solver.u, solver.v, solver.f, solver.t, solver.g, solver.state)
-        self.guard = EnergyGuard(0.5 * float(solver.u @ self.f_static),
-                                 fraction=scene.solver.energy_guard)
+        self.guard.e_static = abs(0.5 * float(solver.u @ self.f_static))
         self.guard.start()
         self.joints.set_reference(solver.g)       # slip and rotation from the static state
-        self._update_laws(solver.state)            # the sizes for step 1
+        self.size_scale.update(solver.state)       # the sizes for step 1
         self._prepare_loop()
         return self.static_info
 
     def _resume(self) -> dict:
-        meta, arrs = self._restart
-        solver = self.solver
-        solver.state = interface_state(arrs)
-        self._update_laws(solver.state, book_energy=False)
-        restore_solver_arrays(solver, arrs, meta["time"])
-        self.static_info = meta["static"]
-        self.uplift.restore(arrs)
-        self.f_reaction = np.array(arrs["f_reaction"])
-        if self.screening is not None:
-            self.screening.restore(arrs)
-        self.safety.static = (self.static_info or {}).get("joints")
+        meta, arrays = self._restart
+        own = join_checkpoint("run", arrays, meta["parts"])
+        self.static_info = own["static"]
+        self.f_reaction = np.array(own["f_reaction"])
+        self.u_static = np.array(own["u_static"])
+        self._wall_before = float(own["dynamic_wall"])
+        for p in self.parts:                      # in the parts' order (run.parts)
+            p.restore(join_checkpoint(p.name, arrays, meta["parts"]))
         extra = self.f_reaction.copy()
         if self.uplift.active:
             extra += self.uplift.load(self.uplift.p_static)
         self.f_static = self.f_base + extra
-        self.timings["static"] = self.static_info["wall"]
-        self.u_static = arrs["u_static"]
-        self.history = History.from_arrays(arrs, self.history_keys)
-        self.snapshots.restore(arrs)
-        self.heel = {"u": arrs["heel_u"], "t": float(meta["heel_t"]),
-                     "open": float(meta["heel_open"])}
-        self.energy.restore(arrs)
-        self.guard = EnergyGuard(fraction=self.scene.solver.energy_guard)
-        self.guard.restore(meta.get("guard") or {},
-                           {kk: c[-1] for kk, c in self.history.cols.items()}
-                           if len(self.history) else None)
-        self.joints.static_motion = arrs["joints_static_motion"]
-        self.stop_rule.restore(arrs)
-        self.pairing.restore(arrs, solver, arrs.get("solver_g_offset") if hasattr(arrs, "get")
-                             else None)
         if self.pairing.repairs and self.uplift.active:
             self._operator_changed()
+        self.timings["static"] = self.static_info["wall"]
         self.k = self.resumed_from = int(meta["step"])
-        self._wall_before = float(meta["dynamic_wall"])
         if self.progress:
             self.log(f"[{self.scene.name}] resuming from step {self.k} "
                      f"(t = {self.k * self.scene.time.dt:.4g} s)")
@@ -367,21 +376,50 @@ class Analysis:
         """One step of the record: solve, measure, record, checkpoint when due. Returns False
         when the run is over (this was the last step, or the stop rule fired at it; also when
         called with no step left), True when ``step()`` may be called again."""
-        from ..solve.newmark import SolverError
-
         if self.history is None:
             raise RuntimeError("Analysis.step: call static() first")
         if self.done:
             return False
-        if self._bar is None:
-            self._start_loop()
-        solver, joints, scene = self.solver, self.joints, self.scene
+        if self.progress_bar.bar is None:
+            self.progress_bar.open(self.k)
+            self._t_loop = time.perf_counter()
+        solver, scene = self.solver, self.scene
         k = self.k + 1
         tk = self.times[k]
         f_k = seismic_load(self.f_static, self.Mrx, self.Mry, self.ax[k], self.ay[k])
         if self.absorbing is not None:
             f_k = f_k + self.absorbing.force(solver.time + solver.dt)
-        snap = self._snapshot()
+        rep, f_used, en, scan = self._solve(k, tk, f_k)
+        self.k = k
+        ctx = StepContext(k=k, t=tk, dt=scene.time.dt, solver=solver, report=rep, load=f_used,
+                          energy=en, scan=scan, static_loads=self._static_loads)
+        for part in self.parts:                   # in their order (run.parts)
+            part.after_step(ctx)
+        if ctx.stop is not None:
+            coll = dict(ctx.stop)
+            verdict = coll.pop("verdict")
+            if verdict == "collapse":
+                self.collapse = coll
+            else:                          # the model's range left (run.collapse)
+                self.undetermined = coll
+            self.stopped = {"reason": f"{verdict}: {coll['reason']}", "t": coll["time"],
+                            "step": k, "verdict": verdict}
+            if self.progress:
+                self.progress_bar.write(f"[{scene.name}] stopped at t = {tk:.3f} s: "
+                                        + self.stopped["reason"])
+            return False
+        return k < self.n_steps
+
+    def _solve(self, k, tk, f_k):
+        """The step's solve: the uplift's fixed point (``run.uplift``) and the energy guard
+        (``run.energy.EnergyGuard``: a step that breaks the energy balance is repeated from
+        the committed state in 2, 4, ... uniform sub-steps). Returns (the solver's report,
+        the load used, the energy row, the joints' scan)."""
+        solver, scene = self.solver, self.scene
+        # what a step changes, to repeat it: the solver's committed state with its coupled
+        # water's, the uplift in force and the energy budget's accumulators
+        repeat = (self.solver_part, self.uplift, self.energy)
+        saved = [p.checkpoint() for p in repeat]
         split, cuts, failed = 0, 0, 0
         while True:
             try:
@@ -390,7 +428,7 @@ class Analysis:
                 raise SolverError(f"{scene.name}: step {k} (t = {tk:.4f} s): {e}") from None
             st = solver.state
             # the per-point work of the joints', energy's and safety's measures, once
-            scan = joints.scan(st, solver.g, solver.t)
+            scan = self.joints.scan(st, solver.g, solver.t)
             # K u, M v from the solver's pass that also forms the next step's right-hand side
             # (the budget and the solver are built on the same model.K, model.M)
             en = self.energy.step(solver.u, solver.v, f_used, solver.t, solver.g, st, scan,
@@ -398,8 +436,6 @@ class Analysis:
             ok, why = self.guard.check(en, tk)       # (fraction 0: the guard is off)
             if ok:
                 break
-            # the step broke the energy balance: never accepted; repeated from the committed
-            # state in 2, 4, ... uniform sub-steps (run.energy.EnergyGuard)
             cuts += rep.cuts + 1
             failed += rep.iterations + rep.iterations_failed
             split += 1
@@ -407,126 +443,37 @@ class Analysis:
                 raise SolverError(f"{scene.name}: step {k} (t = {tk:.4f} s): {why}, even in "
                                   f"{2 ** GUARD_SPLITS} sub-steps; committed state is at "
                                   f"t = {self.times[k - 1]:.6g} s")
-            self._restore(snap)
+            for p, d in zip(repeat, saved):
+                p.restore(d)
         rep.cuts += cuts
         rep.iterations_failed += failed
-        f_k = f_used
-        if self.screening is not None:
-            self.screening.update(solver.u, solver.time, solver.dt)
-        self.k = k
-        if self.reservoir is not None:
-            self.reservoir.sample(k, tk)
-        jm = joints.measures(st, solver.g, scan)
-        cx, cy = self.model.crest_dofs
-        self.history.append(
-            step=k, t=tk, crest_ux=solver.u[cx], crest_uy=solver.u[cy],
-            iterations=rep.iterations, iterations_failed=rep.iterations_failed, cuts=rep.cuts,
-            substeps=len(rep.dts), n_active=rep.n_active, n_debonded=jm["base_n_debonded"],
-            crack_length=jm["base_crack_length"],
-            crack_length_heel=jm["base_crack_length_upstream"], max_D=jm["base_max_D"],
-            D_heel=float(st.damage[0]), kappa_heel=float(st.kappa[0]),
-            size_b=jm["base_size_b"], sigma_max=jm["base_sigma_max"], wall=rep.wall, **jm,
-            **en, **self.safety.step_measures(solver.t, st, self.uplift.p, scan))
-        self._update_laws(st, scan=scan)       # size-scale update for the next step
-        if self.pairing.active and self.pairing.update(solver):   # finite sliding
-            self._operator_changed()
-            # an opened point's gap jumps by OPEN_GAP with no motion: no work is booked
-            self.energy.rebase_gap(solver.operator_gap())
-        if self.snapshots.due(k):
-            self.snapshots.take(k, tk, solver)
-        self.outputs.step(self, k, tk)
-        self._show(k, rep, jm)
-        base = joints.slices[0]
-        if jm["base_n_debonded"] < base.stop - base.start and solver.g[0, 0] > self.heel["open"]:
-            self.heel = {"u": solver.u.copy(), "t": float(tk), "open": float(solver.g[0, 0])}
-        coll = self.stop_rule.check(k, tk, scene.time.dt, jm, self._static_loads, joints, scan)
-        if coll is not None:
-            verdict = coll.pop("verdict")
-            if verdict == "collapse":
-                self.collapse = coll
-            else:                          # the model's range left (run.stopping)
-                self.undetermined = coll
-            self.stopped = {"reason": f"{verdict}: {coll['reason']}", "t": coll["time"],
-                            "step": k, "verdict": verdict}
-        if self.stopped is not None:
-            if self.progress:
-                self._bar.write(f"[{scene.name}] stopped at t = {tk:.3f} s: "
-                                + self.stopped["reason"])
-            return False
-        if self.checkpoints.due(k):
-            self._checkpoint(k)
-            # a run resumed here starts with a fresh solver: the uninterrupted run drops
-            # what the solver carries besides the committed state (a reused Jacobian)
-            solver.forget_jacobian()
-        return k < self.n_steps
-
-    def _snapshot(self):
-        """What a step changes, to repeat it (the energy guard): the solver's committed state
-        with its coupled water's (``solver_snapshot``), the uplift in force and the energy
-        budget's accumulators."""
-        return (solver_snapshot(self.solver), self.uplift.field.p, self.energy.state())
-
-    def _restore(self, snap):
-        sv, p, budget = snap
-        restore_solver(self.solver, sv)
-        self.uplift.field.p = p
-        self.energy.restore(budget)
+        return rep, f_used, en, scan
 
     def _static_loads(self):
         """Gravity, water and tailwater with the uplift now (the collapse rule's FS_static)."""
         return self.f_base + (self.uplift.load(self.uplift.p) if self.uplift.active else 0.0)
 
-    def _start_loop(self):
-        from tqdm import tqdm
-        sc = self.scene
-        # disable=None: tqdm turns itself off when stderr is not a terminal (logs stay readable)
-        self._bar = tqdm(total=self.n_steps, initial=self.k,
-                         disable=None if self.progress else True, unit="step",
-                         desc=f"{sc.name} a={sc.interface.alpha:g}", dynamic_ncols=True)
-        self._t_loop = time.perf_counter()
-
-    def _show(self, k, rep, jm):
-        self._bar.update(1)
-        if self.progress and (k % 10 == 0 or k == self.n_steps):
-            # the cuts so far: a running sum (summing the whole column is O(k) per call)
-            self._n_cuts += int(np.sum(self.history.cols["cuts"][self._n_cuts_at:]))
-            self._n_cuts_at = len(self.history)
-            self._bar.set_postfix_str(f"t={self.times[k]:.3f}s it={rep.iterations} "
-                                      f"cuts={self._n_cuts} "
-                                      f"crack={jm['base_crack_length_upstream']:.3f}m "
-                                      f"Dheel={self.solver.state.damage[0]:.3f}",
-                                      refresh=False)
-
     def _dynamic_wall(self) -> float:
         return self._wall_before + (0.0 if self._t_loop is None
                                     else time.perf_counter() - self._t_loop)
 
+    def checkpoint(self) -> dict:
+        """The run's own share of a checkpoint (the parts' follow it, ``run.parts``): the
+        static state and the wall time so far."""
+        return {"static": self.static_info, "u_static": self.u_static,
+                "f_reaction": self.f_reaction, "dynamic_wall": self._dynamic_wall()}
+
     def _checkpoint(self, k):
-        solver = self.solver
-        arrays = {**solver_arrays(solver), "u_static": self.u_static, "heel_u": self.heel["u"],
-                  "f_reaction": self.f_reaction, **self.energy.state(),
-                  **self.uplift.checkpoint_arrays(), **self.stop_rule.state(),
-                  **self.pairing.state(), "joints_static_motion": self.joints.static_motion}
-        if self.screening is not None:
-            arrays.update(self.screening.checkpoint_arrays())
-        if self.reservoir is not None:             # the water state, in the same set
-            arrays.update(self.reservoir.checkpoint_arrays())
-        arrays.update({f"hist_{kk}": vv for kk, vv in self.history.arrays().items()})
-        arrays.update(self.snapshots.arrays())
-        self.checkpoints.save(k, {"scene": self.scene_d, "time": solver.time,
-                                  "static": self.static_info, "heel_t": self.heel["t"],
-                                  "heel_open": self.heel["open"],
+        arrays, parts = split_checkpoint([self] + self.parts)
+        self.checkpoints.save(k, {"scene": self.scene_d, "parts": parts,
                                   "rayleigh": {"a0": self.damping["a0"],
                                                "a1": self.damping["a1"]},
-                                  "dynamic_wall": self._dynamic_wall(),
-                                  "guard": self.guard.state(),
                                   "laws": self.joints.params()}, **arrays)
 
     def close(self):
         """End the time loop: the progress bar closed, the last checkpoint on disk (written in
         the background). ``finish`` calls it; a caller that stops early calls it itself."""
-        if self._bar is not None:
-            self._bar.close()
+        self.progress_bar.close()
         self.checkpoints.wait()
 
     # ------------------------------------------------------------------ the end
@@ -581,8 +528,6 @@ class Analysis:
                      x=iface.x, y=iface.y, w=iface.w,
                      **{f"state_{kk}": vv for kk, vv in solver.state.as_dict().items()})
         files.append("final_state.npz")
-        if self.reservoir is not None:
-            self.reservoir.clear_checkpoints()                # the run is complete
         return files
 
     def _summary(self, H, post, safety_sum, files) -> dict:
@@ -677,7 +622,6 @@ def prepare(scene, outdir=None, *, resume: bool = False, progress: bool = True,
             checkpoints.remove_all()          # finished run's files at the end (finish)
         t = time.perf_counter()
         if model is None:
-            from ..fe.model import build_from_scene
             model = build_from_scene(scene)
         t_build = time.perf_counter() - t
         a = Analysis(scene, out, gm, model, checkpoints, restart, progress=progress,

@@ -1,6 +1,7 @@
 """Checkpoints of a run: arrays + manifest written atomically, the manifest last (the commit
-point), the previous checkpoint kept until the next one is committed;
-and the copy of a solver's committed state that a checkpoint or a repeated solve needs."""
+point), the previous checkpoint kept until the next one is committed; the solver's
+committed state as a run part (``SolverPart``: the copy a checkpoint or a repeated solve
+needs)."""
 from __future__ import annotations
 
 import hashlib
@@ -13,41 +14,74 @@ import zlib
 
 import numpy as np
 
+from interfacelaw import InterfaceState
+
+from .parts import Part
 from .store import atomic_write_bytes, atomic_write_text, json_text, npz_bytes
 
+# the layout of a checkpoint: 2 = one namespace per run part (``run.parts``); a checkpoint of
+# another format is refused on --resume with a message saying so
+CHECKPOINT_FORMAT = 2
 
-def solver_snapshot(solver) -> dict:
-    """A copy of everything the solver has committed: u, v, a, f, time, the interface state,
-    the internals of ``checkpoint_state`` and the state of its coupled water (``solver.ext``,
-    compressible acoustic water: p, p', p'' and its energy accumulators), so that a solve can
-    be repeated from it bit for bit. Without the water's, a repeated step (the uplift's fixed
-    point) stepped the water twice: pine_flat's energy guard stopped the run at 2.97 s."""
+
+# The calls into the solver's own save and restore (and its coupled water's) are here and
+# nowhere else in run/: the solve stage's names for them may change in one place.
+def _solver_internals(solver) -> dict:
+    return solver.checkpoint_state()
+
+
+def _restore_solver_internals(solver, d) -> None:
+    solver.restore_state(d)
+
+
+def _water(solver):
+    """The solver's coupled water with a state of its own (compressible acoustic), or None."""
     ext = getattr(solver, "ext", None)
-    ext = ext if hasattr(ext, "state") and hasattr(ext, "restore") else None
-    return {"u": solver.u.copy(), "v": solver.v.copy(), "a": solver.a.copy(),
-            "f": None if solver.f is None else solver.f.copy(), "time": solver.time,
-            "internals": solver.checkpoint_state(), "state": solver.state.copy(),
-            "ext": None if ext is None else {k: None if v is None else np.array(v, copy=True)
-                                             for k, v in ext.state().items()}}
+    return ext if hasattr(ext, "state") and hasattr(ext, "restore") else None
 
 
-def restore_solver(solver, snap) -> None:
-    """Put the solver back to ``solver_snapshot``'s state (copies: the snapshot stays valid)."""
-    solver.u, solver.v, solver.a = snap["u"].copy(), snap["v"].copy(), snap["a"].copy()
-    solver.f = None if snap["f"] is None else snap["f"].copy()
-    solver.time = snap["time"]
-    solver.restore_state(snap["internals"])
-    solver.state = snap["state"].copy()
-    if snap.get("ext"):                  # the coupled water's state ({} : nothing to restore)
-        solver.ext.restore(snap["ext"])
+class SolverPart(Part):
+    """The solver's committed state as a run part: u, v, a, f, time, the interface state, the
+    internals a bitwise continuation needs (traction, gap, phi, the active set, the gap
+    offset of a re-paired joint) and the state of its coupled water (compressible acoustic
+    water: p, p', p'' and its energy accumulators). ``checkpoint()`` copies it all: the same
+    dict repeats a solve bit for bit (the energy guard, the uplift's fixed point, the
+    post-earthquake check) and is the solver's share of a checkpoint. Without the water's, a
+    repeated step (the uplift's fixed point) stepped the water twice: pine_flat's energy
+    guard stopped the run at 2.97 s."""
 
+    name = "solver"
 
-def solver_arrays(solver) -> dict:
-    """The solver's committed fields as checkpoint arrays (``restore_solver_arrays``)."""
-    out = {"u": solver.u, "v": solver.v, "a": solver.a, "f": solver.f}
-    out.update({f"solver_{k}": v for k, v in solver.checkpoint_state().items()})
-    out.update({f"state_{k}": v for k, v in solver.state.as_dict().items()})
-    return out
+    def __init__(self, solver):
+        self.solver = solver
+
+    def checkpoint(self) -> dict:
+        s = self.solver
+        d = {"u": s.u.copy(), "v": s.v.copy(), "a": s.a.copy(), "time": float(s.time)}
+        if s.f is not None:
+            d["f"] = s.f.copy()
+        d.update({f"internal.{k}": np.array(v, copy=True)
+                  for k, v in _solver_internals(s).items()})
+        d.update({f"state.{k}": np.array(v, copy=True) for k, v in s.state.as_dict().items()})
+        water = _water(s)
+        if water is not None:
+            d.update({f"water.{k}": None if v is None else np.array(v, copy=True)
+                      for k, v in water.state().items()})
+        return d
+
+    def restore(self, d: dict) -> None:
+        """The solver as ``checkpoint()`` found it (copies: ``d`` stays valid)."""
+        s = self.solver
+        s.u, s.v, s.a = (np.array(d[k], dtype=float) for k in "uva")
+        s.f = np.array(d["f"], dtype=float) if d.get("f") is not None else None
+        s.time = float(d["time"])
+        _restore_solver_internals(s, {k[9:]: v for k, v in d.items()
+                                      if k.startswith("internal.")})
+        s.state = InterfaceState.from_dict({k[6:]: v for k, v in d.items()
+                                            if k.startswith("state.")})
+        water = {k[6:]: v for k, v in d.items() if k.startswith("water.")}
+        if water:
+            _water(s).restore(water)
 
 
 def scene_difference(have, want, path="") -> str | None:
@@ -96,20 +130,14 @@ def checkpoint_scene_difference(scene, directory) -> str | None:
     return resume_difference(meta.get("scene") or {}, scene.to_dict())
 
 
-def interface_state(arrs):
-    """The interface state saved by ``solver_arrays``."""
-    from interfacelaw import InterfaceState
-    return InterfaceState.from_dict({k[6:]: v for k, v in arrs.items()
-                                     if k.startswith("state_")})
-
-
-def restore_solver_arrays(solver, arrs, time: float) -> None:
-    """The rest of ``solver_arrays`` once ``solver.state`` (``interface_state``) and the law
-    are set: u, v, a, f (``set_initial`` evaluates the law on them), then the committed
-    internals exactly as they were, and the time."""
-    solver.set_initial(u=arrs["u"], v=arrs["v"], a=arrs["a"], f=arrs["f"])
-    solver.restore_state({k[7:]: v for k, v in arrs.items() if k.startswith("solver_")})
-    solver.time = float(time)
+def format_error(meta: dict, directory) -> str | None:
+    """Why a checkpoint's manifest cannot be resumed by this version (its format), or None."""
+    have = meta.get("format", 1)
+    if have == CHECKPOINT_FORMAT:
+        return None
+    return (f"--resume: the checkpoint (step {meta.get('step')}) in {directory} has checkpoint "
+            f"format {have!r}, written by another version; this version reads format "
+            f"{CHECKPOINT_FORMAT}; allowed: rerun without --resume (--overwrite replaces it)")
 
 
 class CheckpointDamaged(ValueError):
@@ -176,7 +204,8 @@ class Checkpointer:
         previous one; ``wait()`` before anything reads the directory or the run ends."""
         name = f"checkpoint_{step:07d}.npz"
         data = npz_bytes(**arrays)
-        text = json_text(dict(meta, step=step, arrays=name, arrays_bytes=len(data),
+        text = json_text(dict(meta, step=step, format=CHECKPOINT_FORMAT, arrays=name,
+                              arrays_bytes=len(data),
                               arrays_sha256=_sha256(data)))
         self.wait()
         self._writer = threading.Thread(target=self._write, args=(name, data, text),
@@ -273,3 +302,20 @@ class Checkpointer:
                 if len(errors) > 1 else "no previous one is left; ")
         raise CheckpointDamaged(f"{errors[0]}; resume from the previous one or rerun without "
                                 f"--resume ({prev}a rerun needs --overwrite to replace it)")
+
+
+class CheckpointStep(Part):
+    """Writing the checkpoint when due (``output.checkpoint_every``), a run part
+    (``run.parts``), listed last: ``save(k)`` writes every part's checkpoint. A run resumed
+    there starts with a fresh solver, so the uninterrupted run drops what the solver carries
+    besides its committed state (a reused Jacobian) at the same step."""
+
+    name = "checkpoints"
+
+    def __init__(self, checkpointer, save, solver):
+        self.checkpointer, self.save, self.solver = checkpointer, save, solver
+
+    def after_step(self, ctx):
+        if ctx.stop is None and self.checkpointer.due(ctx.k):
+            self.save(ctx.k)
+            self.solver.forget_jacobian()

@@ -295,7 +295,7 @@ class EnergyBudget:
         return row
 
     def rebase_gap(self, g):
-        """The joints' gap was re-based without motion (a joint paired anew, run/sliding: a
+        """The joints' gap was re-based without motion (a joint paired anew, run/pairing: a
         point that slid off its face is opened by ``OPEN_GAP``): the next step's joint work
         starts from ``g`` (npts, 2), so that the jump books no work (no traction acts over it)."""
         self._tg = (self._tg[0], np.ascontiguousarray(g, dtype=np.float64).ravel().copy())
@@ -306,27 +306,32 @@ class EnergyBudget:
         return list(ENERGY_KEYS[:-1]) + [f"{n}_{k}" for n in self.joints.names
                                          for k in ("E_stored", "E_diss")] + water + ["residual"]
 
-    def state(self) -> dict:
-        """What a checkpoint must keep to continue the budget bitwise."""
+    # a run part (run.parts): the budget's row of the step is formed in the solve (the energy
+    # guard checks it there); after the step it goes into the history row
+    name = "energy"
+
+    def after_step(self, ctx):
+        ctx.row.update(ctx.energy)
+
+    def checkpoint(self) -> dict:
+        """What a checkpoint (or a repeat of the step) must keep to continue bitwise."""
         u0, v0, f0 = self._prev
         k0, b0, s0, d0 = self._ref
-        return {"energy_prev_u": u0.copy(), "energy_prev_v": v0.copy(),
-                "energy_prev_f": f0.copy(),
-                "energy_ref": np.array([k0, b0, *s0, *d0]),
-                "energy_acc": np.array([self.W_ext, self.E_damp, self.E_scaling,
-                                        self.W_joints]),
-                "energy_joint_wt": self._tg[0].copy(), "energy_joint_g": self._tg[1].copy()}
+        return {"prev_u": u0.copy(), "prev_v": v0.copy(), "prev_f": f0.copy(),
+                "ref": np.array([k0, b0, *s0, *d0]),
+                "acc": np.array([self.W_ext, self.E_damp, self.E_scaling, self.W_joints]),
+                "joint_wt": self._tg[0].copy(), "joint_g": self._tg[1].copy()}
 
     def restore(self, arrs):
-        self._prev = tuple(_vec(arrs[f"energy_prev_{x}"], self._km.n).copy() for x in "uvf")
-        r = arrs["energy_ref"]
+        self._prev = tuple(_vec(arrs[f"prev_{x}"], self._km.n).copy() for x in "uvf")
+        r = arrs["ref"]
         nj = len(self.joints.names)
         self._ref = (float(r[0]), float(r[1]), [float(x) for x in r[2:2 + nj]],
                      [float(x) for x in r[2 + nj:2 + 2 * nj]])
-        acc = [float(x) for x in arrs["energy_acc"]]
+        acc = [float(x) for x in arrs["acc"]]
         self.W_ext, self.E_damp, self.E_scaling = acc[:3]
         self.W_joints = acc[3]
-        self._tg = (np.array(arrs["energy_joint_wt"]), np.array(arrs["energy_joint_g"]))
+        self._tg = (np.array(arrs["joint_wt"]), np.array(arrs["joint_g"]))
         u0, v0, _ = self._prev              # the products the run had (bitwise the same)
         Ku, Mv = self._km.products(_vec(u0, self._km.n), _vec(v0, self._km.n))
         self._prods = (Mv, Ku)
@@ -410,19 +415,29 @@ class EnergyGuard:
             self.max_ratio = max(self.max_ratio, jump / limit)
         return True, ""
 
-    def state(self) -> dict:
-        """What a checkpoint keeps (JSON): the scale's static part and the maxima so far."""
-        return {"e_static": self.e_static, "cuts": self.cuts, "max_jump": self.max_jump,
-                "max_jump_t": self.max_jump_t, "max_ratio": self.max_ratio}
+    # a run part (run.parts): it judges the step inside the solve (``check``)
+    name = "guard"
 
-    def restore(self, d, row):
-        """A resumed run: ``state()``'s dict and the last history row (its budget terms)."""
-        self.e_static = abs(float(d.get("e_static", 0.0)))
-        self.start(row)
-        self.cuts = int(d.get("cuts", 0))
-        self.max_jump = float(d.get("max_jump", 0.0))
-        self.max_jump_t = d.get("max_jump_t")
-        self.max_ratio = float(d.get("max_ratio", 0.0))
+    def after_step(self, ctx):
+        pass
+
+    def checkpoint(self) -> dict:
+        """What a checkpoint keeps (JSON): the last accepted step's terms, the energy scale,
+        and the maxima so far."""
+        return {"e_static": self.e_static, "prev": None if self.prev is None
+                else list(self.prev), "scale": self.scale, "cuts": self.cuts,
+                "max_jump": self.max_jump, "max_jump_t": self.max_jump_t,
+                "max_ratio": self.max_ratio}
+
+    def restore(self, d):
+        """A resumed run: ``checkpoint()``'s dict."""
+        self.e_static = float(d["e_static"])
+        self.prev = None if d["prev"] is None else tuple(float(x) for x in d["prev"])
+        self.scale = float(d["scale"])
+        self.cuts = int(d["cuts"])
+        self.max_jump = float(d["max_jump"])
+        self.max_jump_t = d["max_jump_t"]
+        self.max_ratio = float(d["max_ratio"])
 
     def summary(self) -> dict:
         return {"max_step_jump": self.max_jump, "max_step_jump_t": self.max_jump_t,

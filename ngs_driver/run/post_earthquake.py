@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .checkpoint import restore_solver, solver_snapshot
+from .checkpoint import SolverPart
 from .safety import FS_CAP, FS_CRITERION
 from .statics import spring_supported
 
@@ -52,7 +52,8 @@ class PostEarthquakeCheck:
             solver = spring_supported(main, self.absorbing.K_support)
             solver.set_initial(u=main.u)
         uplift.p = uplift.pressure(solver.state)
-        final = solver_snapshot(solver)
+        saved = SolverPart(solver)
+        final = saved.checkpoint()
         slip0 = self._mean_slips(solver.g)
         try:
             # no relaxation at a limit load here (it is for the crack growth of the
@@ -75,7 +76,7 @@ class PostEarthquakeCheck:
             ok, note = True, "static solve from the final interface state"
             iters = int(rep.iterations)
         except SolverError as e:
-            restore_solver(solver, final)
+            saved.restore(final)
             uplift.p = uplift.pressure(solver.state)
             m = self._resultant_measures(solver, f_base_static)
             ok, iters = False, None

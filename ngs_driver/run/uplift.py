@@ -19,8 +19,9 @@ from __future__ import annotations
 import numpy as np
 
 from ..setup.uplift import heads, joint_extent, pressure_profile
-from .checkpoint import restore_solver, solver_snapshot
+from .checkpoint import SolverPart
 from .joints import debonded_measures
+from .parts import Part
 
 __all__ = ["UpliftField", "Uplift"]
 
@@ -71,13 +72,13 @@ class UpliftField:
         return self.BT @ gv
 
     def set_operator(self, B):
-        """The gap operator of a joint paired anew (finite sliding, run/sliding.py): the
+        """The gap operator of a joint paired anew (finite sliding, run/pairing.py): the
         pressure acts on the faces that are now in contact."""
         self.B = B
         self.BT = B.T.tocsr()
 
 
-class Uplift:
+class Uplift(Part):
     """The uplift of a run: the field, the pre-earthquake pressure ``p_static``, the pressure
     in force ``p``, and the solves with the pressure of the crack state they end in."""
 
@@ -117,7 +118,8 @@ class Uplift:
         if not dependent:
             f = f_base + self.field.load(p) if self.active else f_base
             return call(f), p, f
-        snap = solver_snapshot(solver)
+        saved = SolverPart(solver)
+        snap = saved.checkpoint()
         for k in range(self.MAX_FIXED_POINT):
             f = f_base + self.field.load(p)
             rep = call(f)
@@ -127,7 +129,7 @@ class Uplift:
             self.fixed_point_iterations += 1
             if k == self.MAX_FIXED_POINT - 1:
                 break
-            restore_solver(solver, snap)
+            saved.restore(snap)
             p = p_new
         self.fixed_point_unconverged += 1
         return rep, p, f
@@ -157,14 +159,16 @@ class Uplift:
         self.field.p = p
         return rep, f
 
-    def checkpoint_arrays(self) -> dict:
-        return {"uplift_p_static": self.p_static, "uplift_p": self.field.p,
-                "uplift_counts": np.array([self.fixed_point_iterations,
-                                           self.fixed_point_unconverged], dtype=np.int64)}
+    name = "uplift"           # a run part (run.parts): its step is in the solve (``step``)
 
-    def restore(self, arrs):
-        self.p_static = np.array(arrs["uplift_p_static"])
+    def checkpoint(self) -> dict:
+        return {"p_static": self.p_static.copy(), "p": np.array(self.field.p, copy=True),
+                "fixed_point_iterations": int(self.fixed_point_iterations),
+                "fixed_point_unconverged": int(self.fixed_point_unconverged)}
+
+    def restore(self, d):
+        self.p_static = np.array(d["p_static"])
         self.field.p_pre = self.p_static.copy()
-        self.field.p = np.array(arrs["uplift_p"])
-        self.fixed_point_iterations, self.fixed_point_unconverged = (
-            int(c) for c in arrs["uplift_counts"])
+        self.field.p = np.array(d["p"])
+        self.fixed_point_iterations = int(d["fixed_point_iterations"])
+        self.fixed_point_unconverged = int(d["fixed_point_unconverged"])

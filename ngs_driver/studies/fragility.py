@@ -27,7 +27,7 @@ import numpy as np
 # feet": 1 in (25 mm), 6 in (150 mm) and 2 ft (600 mm); no published damage-state
 # thresholds for the permanent slip of a gravity dam could be read here, so these are this
 # project's choice on that range, and ``--limit-state`` sets others. A run that collapsed
-# (a joint sliding without bound, run/stopping.py) exceeds every sliding limit state.
+# (a joint sliding without bound, run/collapse.py) exceeds every sliding limit state.
 DEFAULT_LIMIT_STATES = (
     ("heel_crack_1m", "crack_heel_max_m", 1.0, "heel crack length >= 1 m"),
     ("heel_crack_5m", "crack_heel_max_m", 5.0, "heel crack length >= 5 m"),
@@ -38,7 +38,7 @@ DEFAULT_LIMIT_STATES = (
     ("residual_slip_600mm", "slip_residual_m", 0.600,
      "permanent base slip >= 600 mm (2 ft; Chopra & Zhang 1991 range)"),
     ("collapse", "collapse", 1.0, "collapse: a joint slides without bound or slides off "
-                                  "(run/stopping.py; a run that left the model's range, "
+                                  "(run/collapse.py; a run that left the model's range, "
                                   "verdict undetermined, is not a collapse)"),
     ("base_failure", "full_base_failure", 1.0, "full base failure (whole base debonded, or "
                                                 "collapse)"),
@@ -172,7 +172,7 @@ def exceedances(rows, column: str, threshold: float, failed: str = "exceed") -> 
     reason (solver error after all cuts) count as exceeding (``failed='exceed'``, numerical
     collapse as in IDA practice) or are left out (``'exclude'``). A run that stopped because it
     left the model's range (verdict undetermined: ``time.max_slip`` / ``time.max_rotation``,
-    run/stopping.py) exceeds where the value it reached before the stop does; elsewhere its
+    run/collapse.py) exceeds where the value it reached before the stop does; elsewhere its
     outcome is unknown and it follows ``failed`` like a failed run (counting it as not
     exceeding would bias the fragility low)."""
     lv = {}

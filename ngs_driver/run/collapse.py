@@ -12,7 +12,7 @@ A run goes to the end of its record unless a joint collapses:
   bonded ligament left is not collapsing yet: the ligament either holds or debonds, and then
   the rule applies);
 * **sliding off**: the mean slip of a lift joint reaches the joint's length: the block above
-  has left the block below (run/sliding opens every point that has no face below it).
+  has left the block below (run/pairing opens every point that has no face below it).
 
 Toppling (the block's resultant outside the joint) needs rotations near atan(b/h) (0.49 rad for
 koyna_1967's top block); the small-rotation kinematics end well before (docs/solver.md §11),
@@ -30,6 +30,9 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..fe.pairing import upper_columns
+from .parts import Part
+
 __all__ = ["CollapseRule", "SLIDING_RATE", "MAX_ROTATION_SUPPORTED", "VERDICTS"]
 
 SLIDING_RATE = 1e-3     # m/s: a joint whose mean slip changes faster than this is sliding
@@ -43,10 +46,14 @@ MAX_ROTATION_SUPPORTED = 0.1
 VERDICTS = ("no_collapse", "collapse", "undetermined")
 
 
-class CollapseRule:
-    def __init__(self, model, joints, max_slip: float, max_rotation: float):
-        from ..fe.pairing import upper_columns
+class CollapseRule(Part):
+    """The collapse rule as a run part (``run.parts``): after each step it sets the step's
+    ``stop`` when a joint collapsed or left the model's range."""
 
+    name = "collapse"
+
+    def __init__(self, model, joints, max_slip: float, max_rotation: float):
+        self.joints = joints
         self.names = list(joints.names)
         self.max_slip, self.max_rotation = float(max_slip), float(max_rotation)
         blocks = [r for r in model.regions if r != "rock"]
@@ -129,10 +136,14 @@ class CollapseRule:
                         "measure": "static_fs", "value": float(fs[i])}
         return None
 
-    def state(self) -> dict:
-        return {"collapse_prev_slip": np.zeros(0) if self._prev is None else self._prev}
+    def after_step(self, ctx):
+        if ctx.stop is None:
+            ctx.stop = self.check(ctx.k, ctx.t, ctx.dt, ctx.measures, ctx.static_loads,
+                                  self.joints, ctx.scan)
 
-    def restore(self, arrs):
-        p = arrs.get("collapse_prev_slip") if hasattr(arrs, "get") else None
-        if p is not None and np.size(p):
-            self._prev = np.array(p, dtype=np.float64)
+    def checkpoint(self) -> dict:
+        return {"prev_slip": np.zeros(0) if self._prev is None else self._prev.copy()}
+
+    def restore(self, d):
+        p = np.array(d["prev_slip"], dtype=np.float64)
+        self._prev = p if p.size else None
