@@ -248,6 +248,27 @@ def test_resume_with_another_checkpoint_interval(tmp_path, smoke, capsys):
     assert s["results"] == ref["results"]
 
 
+def test_checkpoint_of_another_format_is_refused(tmp_path, smoke, capsys):
+    """A checkpoint of the layout before the run's parts (format 1: no "format" in its
+    manifest) is refused on --resume, at --dry-run too, naming its format and the remedy;
+    nothing of the folder is changed."""
+    sc, md = smoke
+    d = tmp_path / "D"
+    with pytest.raises(RunInterrupted):
+        run(sc, d, model=md, max_steps=3, **QUIET)
+    meta = json.loads((d / "checkpoint.json").read_text())
+    assert meta["format"] == ckmod.CHECKPOINT_FORMAT
+    del meta["format"]
+    (d / "checkpoint.json").write_text(json.dumps(meta))
+    rc, out, err = _cli(["run", "koyna_smoke", "--resume", "--dry-run", "--out", str(d), "--set",
+                         "time.duration=0.01", "--set", "output.checkpoint_every=2"], capsys)
+    assert rc == 2 and "checkpoint format 1" in err and "--overwrite" in err, err
+    with pytest.raises(ValueError, match=r"has checkpoint format 1, written by another "
+                                         r"version; this version reads format 2"):
+        run(sc, d, model=md, resume=True, **QUIET)
+    assert json.loads((d / "checkpoint.json").read_text()) == meta
+
+
 # ----------------------------------------------------------------------- damaged checkpoints
 def _two_checkpoints(d):
     ck = Checkpointer(d, 1)

@@ -125,8 +125,11 @@ def resume_difference(have: dict, want: dict) -> str | None:
 def checkpoint_scene_difference(scene, directory) -> str | None:
     """The first key in which ``scene`` differs from the scene of the checkpoint in
     ``directory`` that a resume would use (``resume_difference``), or None. CheckpointDamaged
-    when no checkpoint there can be read."""
+    when no checkpoint there can be read, ValueError when it has another format."""
     meta, _ = Checkpointer(directory, 0).load()
+    why = format_error(meta, directory)
+    if why is not None:
+        raise ValueError(why)
     return resume_difference(meta.get("scene") or {}, scene.to_dict())
 
 
