@@ -198,7 +198,7 @@ def _resume_check(sc, outdir):
         raise ValueError(f"--resume: no checkpoint in {outdir}{done}; allowed: the results "
                          "directory of an interrupted run with output.checkpoint_every > 0")
     from .run.checkpoint import checkpoint_scene_difference
-    diff = checkpoint_scene_difference(sc, outdir)
+    diff = checkpoint_scene_difference(sc.to_dict(), outdir)
     if diff is not None:
         raise ValueError(f"--resume: the checkpoint in {outdir} was written for a different "
                          f"scene: {diff}; allowed: the same scene and overrides as the "

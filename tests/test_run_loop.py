@@ -12,6 +12,7 @@ from interfacelaw import CohesiveParams, ContactParams, InterfaceLaw
 from ngs_driver.run.energy import EnergyBudget
 from ngs_driver.solve.products import FusedPair
 from ngs_driver.run.joints import Joints, crack_measures
+from ngs_driver.setup import joint_inputs
 from ngs_driver.run.history import History
 from ngs_driver.scene import load_scene
 
@@ -104,7 +105,7 @@ def test_size_scale_update_skipped_when_the_failed_length_is_unchanged():
     x = np.linspace(0.0, 70.0, n)
     w = np.full(n, 70.0 / n)
     iface = SimpleNamespace(parts={"base": slice(0, n)}, x=x, y=np.zeros(n), w=w)
-    js = Joints(sc, iface)
+    js = Joints(joint_inputs(sc), iface)
     law0 = js.laws[0]
     kappa = np.zeros(n)
     seq = [0, 0, 3, 3, 3, 10, 10, 25, 25, 25]          # debonded points from the heel
@@ -201,7 +202,7 @@ def test_joint_scan_gives_the_numpy_measures_bit_for_bit():
     iface = SimpleNamespace(parts={"base": slice(0, n1), "lift45": slice(n1, n)},
                             x=np.r_[np.linspace(0, 70, n1), np.linspace(3, 40, n2)],
                             y=np.r_[np.zeros(n1), np.full(n2, 45.0)], w=w)
-    js = Joints(sc, iface)
+    js = Joints(joint_inputs(sc), iface)
     assert js.laws[0].friction is not None
     assert js.law_params()[0, 1] != 1.0
     saf = SlidingSafety(js)                    # only its measures (no model needed)
@@ -235,7 +236,7 @@ def test_joint_scan_gives_the_numpy_measures_bit_for_bit():
         deb = st.debonded
         checked_friction |= bool(np.any(deb[:n1] & (t[:n1, 0] < 0)))
         # the update from the scan = the update from the state
-        a, b = Joints(sc, iface), Joints(sc, iface)
+        a, b = Joints(joint_inputs(sc), iface), Joints(joint_inputs(sc), iface)
         assert a.update(st, scan) == b.update(st)
         assert a.sizes == b.sizes and a.laws[0].cohesive == b.laws[0].cohesive
     assert checked_friction
@@ -391,3 +392,27 @@ def test_step_products_feed_the_budget_and_the_next_rhs_bit_for_bit():
     assert np.array_equal(half, s._rhs(0.5e-3, f))
     s._mc = None
     assert np.array_equal(kept, s._rhs(1e-3, f))  # and numpy's expression
+
+
+@pytest.mark.parametrize("name, sets", [("koyna", []), ("koyna_1967", []),
+                                        ("koyna", ["interface.contact=none"])])
+def test_setup_k0_is_the_run_laws_stiffness(name, sets):
+    """setup's k0 of the base joint (the modal command's and the studies') is the initial
+    stiffness of the law the run builds for the base, size-scaled to its start (the check
+    analysis.py asserted at every run). 1e-9: the same formula through different roundings
+    (l_Nc formed once or twice)."""
+    from ngs_driver.setup import k0_from_scene
+    from ngs_driver.solve.joint_laws import law_stiffness
+    sc = load_scene(name, sets)
+    law = _base_law_at_start(sc)
+    kn, kt = k0_from_scene(sc)
+    k0n, k0t = law_stiffness(law)
+    assert abs(kn - k0n) <= 1e-9 * k0n and abs(kt - k0t) <= 1e-9 * k0t
+
+
+def _base_law_at_start(sc):
+    """The base's law as ``run.joints.Joints`` starts it (scaled to size 0)."""
+    from ngs_driver.setup import build_law, build_scaling
+    law = build_law(sc.interface)
+    scal = build_scaling(sc.interface, law)
+    return scal.update(law, 0.0) if scal is not None else law

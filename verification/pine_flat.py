@@ -72,7 +72,8 @@ def frequencies(fast: bool) -> list[dict]:
     """f1, f2 with an empty reservoir: foundation x plane."""
     from ngs_driver.fe.model import build_from_scene
     from ngs_driver.apps.modal import run_modal  # noqa: F401  (the same path as `modal`)
-    from ngs_driver.fe.modal import k0_from_scene, modal_analysis
+    from ngs_driver.fe.modal import modal_analysis
+    from ngs_driver.setup import k0_from_scene
 
     rows = []
     for fnd in ("rigid", "massless", "massed"):
@@ -187,7 +188,7 @@ def _first_resonance(sc, eta, fast, f_lo=1.0, f_hi=5.0):
     import numpy as np
 
     from ngs_driver.fe.model import build_from_scene
-    from ngs_driver.fe.modal import k0_from_scene
+    from ngs_driver.setup import k0_from_scene
     from ngs_driver.fe.reservoir import frequency_response, resonance_peaks
 
     md = build_from_scene(sc)
@@ -241,7 +242,7 @@ def samii_lotfi(fast: bool) -> dict:
     import numpy as np
 
     from ngs_driver.fe.model import build_from_scene
-    from ngs_driver.fe.modal import k0_from_scene
+    from ngs_driver.setup import k0_from_scene
     from ngs_driver.fe.reservoir import frequency_response
 
     out = {}

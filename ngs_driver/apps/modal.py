@@ -5,7 +5,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from ..fe.modal import damping_from_modes, k0_from_scene, modal_analysis
+from ..fe.modal import damping_from_modes, modal_analysis
+from ..setup import joint_inputs, k0_from_scene
 from ..post.modal import write_frequency_response, write_modal_json
 from ..run.damping import modes_to_compute
 from ..run.joints import Joints
@@ -59,8 +60,8 @@ def run_modal(scene, out_dir=None, n_modes: int = 6, model=None):
     md = model if model is not None else build_from_scene(scene)
     kn, kt = k0_from_scene(scene)
     # each joint with its own initial stiffness (the base's alone without lift joints)
-    k0 = initial_stiffness(Joints(scene, md.interface).solver_law(), md.interface.npts)
-    res = modal_analysis(md, modes_to_compute(scene, n_modes), k0[:, 0], k0[:, 1])
+    k0 = initial_stiffness(Joints(joint_inputs(scene), md.interface).solver_law(), md.interface.npts)
+    res = modal_analysis(md, modes_to_compute(scene.damping, n_modes), k0[:, 0], k0[:, 1])
     d = scene.damping
     damp = damping_from_modes(res, d.ratio, d.modes, d.frequencies or None, d.model)
     out = Path(out_dir if out_dir is not None else scene.output.dir)
@@ -69,7 +70,7 @@ def run_modal(scene, out_dir=None, n_modes: int = 6, model=None):
              "f1_hz": float(res.frequencies_hz[0])}
     if getattr(md, "reservoir", None) is not None:          # docs/reservoir.md
         from ..fe.reservoir import modal_response
-        info, resp = modal_response(md, scene, kn, kt)
+        info, resp = modal_response(md, scene.damping.ratio, kn, kt)
         if resp is not None:
             info["frequency_response"] = write_frequency_response(out, scene, resp)
             info["measured"] = measured_comparison(

@@ -26,6 +26,7 @@ import scipy.sparse as sp
 
 from . import geometry as geom
 from ..scene import KOYNA_PROFILE
+from ..setup import model_inputs
 from ..section import Section
 from .coupling import JointOperator, build_joint_operator, stack_joint_operators
 from .ngs_helpers import find_vertex, to_scipy, vec, vertex_xy_dofs
@@ -412,31 +413,22 @@ def top_left(mesh, region: str) -> tuple[float, float]:
     return (p[0], p[1])
 
 
-def model_kwargs(scene) -> dict:
-    """Keyword arguments of ``build_model`` for a ``scene.Scene``."""
-    g, m, L = scene.geometry, scene.mesh, scene.loads
+def model_kwargs(inputs) -> dict:
+    """Keyword arguments of ``build_model`` for the ``setup.ModelInputs`` of a scene."""
+    kw = dict(inputs.options)
+    kw.update(section=inputs.section,
+              joints=tuple(geom.JointCut(*j) for j in inputs.joints),
+              **{r: Material(*v) for r, v in inputs.materials.items()})
+    return kw
 
-    def mat(region):
-        d = getattr(scene.materials, region)
-        return Material(d.E, d.nu, d.rho, getattr(scene.materials, "plane", "strain"))
 
-    joints = tuple(geom.JointCut(j.name, j.elevation, j.h_end or m.h_heel,
-                                  j.h_joint or m.h_interface) for j in scene.joints)
-    return dict(section=scene.section, joints=joints,
-                foundation=g.foundation, order=m.order, gauss_points=m.gauss_points,
-                dam=mat("dam"), rock=mat("rock"),
-                gravity=L.gravity, reservoir_level=L.reservoir_level,
-                water_density=L.water_density, lumped_mass=m.lumped_mass,
-                reservoir=getattr(scene, "reservoir", None),
-                rock_sides=g.rock_sides, include_rock_weight=L.rock_weight,
-                h_heel=m.h_heel, h_coarse=m.h_coarse, h_interface=m.h_interface,
-                heel_zone=m.heel_zone, growth=m.growth, grading=m.grading,
-                extent_up=g.extent_up, extent_down=g.extent_down,
-                extent_depth=g.extent_depth, matching=g.matching)
+def build_from_inputs(inputs, **overrides) -> Model:
+    """``build_model`` of a scene's ``setup.ModelInputs`` (keyword arguments overridable)."""
+    kw = model_kwargs(inputs)
+    kw.update(overrides)
+    return build_model(**kw)
 
 
 def build_from_scene(scene, **overrides) -> Model:
-    """``build_model`` with the keyword arguments of a ``scene.Scene`` (overridable)."""
-    kw = model_kwargs(scene)
-    kw.update(overrides)
-    return build_model(**kw)
+    """``build_from_inputs`` of ``setup.model_inputs(scene)`` (the scene is resolved there)."""
+    return build_from_inputs(model_inputs(scene), **overrides)

@@ -170,12 +170,13 @@ def resonance_peaks(f, amp, min_prominence: float = 0.05) -> dict:
     return out
 
 
-def modal_response(model, scene, k0_normal, k0_tangential) -> tuple[dict, dict | None]:
+def modal_response(model, damping_ratio, k0_normal, k0_tangential) -> tuple[dict, dict | None]:
     """What ``modal`` reports about the reservoir, and for compressible acoustic water the crest
     frequency response (else None): {"f": frequencies [Hz], "f_dry": the first frequency
     without water, "eta": hysteretic damping, "curves": {"none" | "incompressible" |
     "compressible": crest acceleration / a_g}, "peak_hz", "f1_reservoir_hz": c / 4H}. The
-    files are written by ``post.modal.write_frequency_response``."""
+    files are written by ``post.modal.write_frequency_response``. damping_ratio: the scene's
+    ``damping.ratio`` (eta = 2 ratio)."""
     res = model.reservoir
     d = dict(res.info)
     d["kind"] = res.kind
@@ -189,7 +190,7 @@ def modal_response(model, scene, k0_normal, k0_tangential) -> tuple[dict, dict |
                  "coupled system is frequency dependent, see frequency_response")
     f_dry = modal_analysis(model, 1, k0_normal, k0_tangential).frequencies_hz[0]
     f = np.linspace(0.3 * f_dry, 3.5 * f_dry, 240)
-    eta = 2 * scene.damping.ratio
+    eta = 2 * damping_ratio
     curves = {k: frequency_response(model, k0_normal, k0_tangential, f, eta, k)[1]
               for k in ("none", "incompressible", "compressible")}
     peaks = {k: float(f[int(np.argmax(np.abs(v)))]) for k, v in curves.items()}

@@ -8,7 +8,8 @@
     summary = a.finish()       # outputs, post-earthquake check, summary.json
 
 ``prepare`` validates the scene (``setup.validate``: laws, record) before anything is
-written, builds the model (``fe.model.build_from_scene``: the section, its lift joints, the
+written, resolves it (``setup.resolve``: the run's typed inputs; below ``setup`` nothing reads
+the scene), builds the model (``fe.model.build_from_inputs``: the section, its lift joints, the
 foundation), one interface law per joint with its size-scale state (``run.joints``), Rayleigh
 damping from the modal analysis (``run.damping``) and the condensed ``NewmarkSolver`` (all
 joints in one gap vector). The static state (dead load + reservoir + tailwater + uplift) is
@@ -44,11 +45,11 @@ from numba import njit
 
 from ..fe.foundation import AbsorbingRock
 from ..fe.loads import tailwater_load
-from ..fe.model import build_from_scene
-from ..fe.modal import k0_from_scene, modal_analysis
-from ..setup import FORMULATION, characteristic_times, law_parts, validate, window_note
+from ..fe.model import build_from_inputs
+from ..fe.modal import modal_analysis
+from ..setup import FORMULATION, model_inputs, resolve, validate
 from ..solve.integrator import Integrator
-from ..solve.joint_laws import initial_stiffness, law_stiffness
+from ..solve.joint_laws import initial_stiffness
 from ..solve.massless import initial_acceleration, massless_dofs
 from ..solve.newmark import NewmarkSolver, SolverError
 from . import summary as sm
@@ -86,10 +87,11 @@ def seismic_load(f_static, Mrx, Mry, ax, ay):
     return f
 
 
-def make_solver(scene, model, C, law, C_lowrank=None):
-    """The condensed solver of the scene's [time] (integrator) and [solver] keys; C_lowrank:
-    the low-rank part of the damping (``run.damping.low_rank_damping``)."""
-    ts, sv = scene.time, scene.solver
+def make_solver(inputs, model, C, law, C_lowrank=None):
+    """The condensed solver of the scene's [time] (integrator) and [solver] keys (``inputs``:
+    the run's ``setup.RunInputs``); C_lowrank: the low-rank part of the damping
+    (``run.damping.low_rank_damping``)."""
+    ts, sv = inputs.time, inputs.solver
     integrator = Integrator.make(ts.integrator, rho_inf=ts.rho_inf, beta=ts.newmark_beta,
                                  gamma=ts.newmark_gamma)
     return NewmarkSolver(model.K, model.M, C, model.interface.B, model.interface.w, law,
@@ -98,7 +100,7 @@ def make_solver(scene, model, C, law, C_lowrank=None):
                          stall_iterations=sv.stall_iterations, min_dt=sv.min_dt)
 
 
-def _restart(scene, out, ckp, scene_d):
+def _restart(out, ckp, scene_d):
     """(meta, arrays) of the checkpoint in ``out``; ValueError naming the first key whose
     value differs when the checkpoint was written for another scene."""
     meta, arrs = ckp.load()          # FileNotFoundError / CheckpointDamaged, clear messages
@@ -116,7 +118,9 @@ def _restart(scene, out, ckp, scene_d):
 class Analysis:
     """One dam run: built by ``prepare``, driven by ``static()``, ``step()``, ``finish()``.
 
-    Public attributes: ``scene``, ``out`` (results folder), ``model``, ``joints``,
+    Public attributes: ``scene`` (kept for the output stage; the run itself reads
+    ``inputs``, the scene resolved by ``setup.resolve``), ``inputs``, ``out`` (results
+    folder), ``model``, ``joints``,
     ``solver``, ``modal``, ``damping`` (the Rayleigh dict), ``gm`` (the ground motion),
     ``times``, ``n_steps``, ``k`` (steps done), ``history``, ``snapshots``, ``energy``,
     ``uplift``, ``safety``, ``screening``, ``absorbing``, ``reservoir``, ``stopped`` (None
@@ -126,53 +130,48 @@ class Analysis:
 
     name = "run"              # its own share of a checkpoint (``checkpoint``)
 
-    def __init__(self, scene, out, gm, model, checkpoints, restart, *, progress, outputs, log,
-                 t0, t_build):
-        self.scene, self.out, self.gm, self.model = scene, out, gm, model
+    def __init__(self, scene, inputs, out, gm, model, checkpoints, restart, *, progress,
+                 outputs, log, t0, t_build):
+        self.scene, self.inputs = scene, inputs
+        self.out, self.gm, self.model = out, gm, model
+        inp = inputs
         self.progress, self.log = progress, log
         self.outputs = outputs if outputs is not None else Outputs()
         self._t0 = t0
-        self.scene_d = scene.to_dict()
+        self.scene_d = inp.scene_dict
         self.checkpoints = checkpoints
         self.lock = None                  # the results folder's lock (``prepare``)
         self.previous_files = None        # the files of a finished run this one replaces
         self._restart = restart
-        resume = restart is not None
         self.timings = {"build": t_build}
 
         # ---- joints, loads besides gravity and water, safety measures ------------------------
         iface = model.interface
-        self.joints = joints = Joints(scene, iface)
-        self.uplift = Uplift(scene, iface, joints)
+        self.joints = joints = Joints(inp.joints, iface)
+        self.uplift = Uplift(inp, iface, joints)
         self.safety = SlidingSafety(joints, pressure=lambda: self.uplift.p)
         self.absorbing = None                # fe.foundation.AbsorbingRock
-        if scene.geometry.rock_sides == "absorbing":
-            self.absorbing = AbsorbingRock(model, scene.materials.rock, gm,
-                                           scene.ground_motion.start)
+        if inp.absorbing:
+            self.absorbing = AbsorbingRock(model, inp.rock, gm, inp.record_start)
         self.screening = None
-        if scene.screening.enabled:
-            self.screening = Screening(scene, model)
-        u = scene.uplift
-        f_tail = tailwater_load(model, u.tailwater, scene.loads.water_density,
-                                scene.loads.gravity)
-        self.post_check = PostEarthquakeCheck(scene, model, joints, self.safety, self.uplift,
-                                              self.absorbing)
-        self.reference = sm.reference_parameters(scene, joints)
-        kn_s, kt_s = k0_from_scene(scene)
-        k0n, k0t = law_stiffness(joints.laws[0])
-        assert abs(kn_s - k0n) <= 1e-9 * k0n and abs(kt_s - k0t) <= 1e-9 * k0t
+        if inp.screening_strength is not None:
+            self.screening = Screening(inp.screening_strength, model)
+        f_tail = tailwater_load(model, inp.tailwater, inp.water_density, inp.gravity)
+        self.post_check = PostEarthquakeCheck(inp.time.max_slip, model, joints, self.safety,
+                                              self.uplift, self.absorbing)
+        self.reference = sm.reference_parameters(inp.g_max, joints)
 
         # ---- modal analysis, damping, solver ---------------------------------------------------
         t = time.perf_counter()
         k0p = initial_stiffness(joints.solver_law(), iface.npts)    # each joint its own k0
-        self.modal = modal_analysis(self._modal_model(), modes_to_compute(scene), k0p[:, 0],
+        self.modal = modal_analysis(self._modal_model(), modes_to_compute(inp.damping), k0p[:, 0],
                                     k0p[:, 1])
-        self.damping = rayleigh_damping(self.modal, scene,
+        self.damping = rayleigh_damping(self.modal, inp.damping,
                                         None if self._restart is None else self._restart[0])
         self.timings["modal"] = time.perf_counter() - t
         C = damping_matrix(model, self.damping, self.absorbing)
         self.low_damping = low_rank_damping(model, joints, self.damping)
-        self.solver = solver = make_solver(scene, model, C, joints.solver_law(),
+        self.solver = solver = make_solver(inp, model, C, joints.solver_law(),
                                            self.low_damping)
         cracked = joints.cracked_points()
         if cracked.any():                # joints that start cracked: no cohesion
@@ -181,10 +180,10 @@ class Analysis:
             solver.set_state(st0)
 
         # ---- the record on the time grid, the loads ---------------------------------------------
-        ts = scene.time
+        ts = inp.time
         self.n_steps = int(round(ts.duration / ts.dt))
         self.times = ts.dt * np.arange(self.n_steps + 1)
-        self.ax, self.ay = gm.at(scene.ground_motion.start + self.times)
+        self.ax, self.ay = gm.at(inp.record_start + self.times)
         Mrx, Mry = model.M @ model.r_x, model.M @ model.r_y
         self.reservoir = None
         if getattr(model, "reservoir", None) is not None:   # hydrodynamics (fe/reservoir.py)
@@ -199,7 +198,7 @@ class Analysis:
         self.f_reaction = np.zeros(model.nfree)   # support reactions (absorbing rock)
         self.f_static = None
         self.u_static = None
-        self.chars = characteristic_times(scene, joints.reference[0].cohesive.l_Nc)
+        self.chars = inp.characteristic_times
         # C = a0 M + a1 K (+ dashpots): the budget's damping work needs no product with C
         self.energy = EnergyBudget(
             model.K, model.M, C, iface.w, joints,
@@ -208,13 +207,13 @@ class Analysis:
             fluid=None if self.reservoir is None else self.reservoir.stepper,
             added_mass=getattr(getattr(model, "reservoir", None), "added_mass", None),
             C_lowrank=self.low_damping)
-        self.guard = EnergyGuard(fraction=scene.solver.energy_guard)
+        self.guard = EnergyGuard(fraction=inp.solver.energy_guard)
         # the wall time stays the last column (everything before it is deterministic)
         self.history_keys = (list(HIST_KEYS[:-1]) + joints.history_keys()
                              + self.safety.history_keys() + self.energy.keys() + ["wall"])
         self.collapse = None
         self.undetermined = None             # the stop entry when the model's range was left
-        self.window_note = window_note(scene, gm)
+        self.window_note = inp.window_note
         self.static_info = None
         self.stopped = None
         self.k = 0
@@ -227,18 +226,17 @@ class Analysis:
         self.solver_part = SolverPart(solver)
         # finite sliding: the joints that slide on a deformable face are paired anew
         self.pairing = JointPairing(model, joints.slices, joints.names, iface.B,
-                                    scene.solver.pairing_tolerance, solver=solver)
+                                    inp.solver.pairing_tolerance, solver=solver)
         self.pairing.on_repair += [
             lambda s: self._operator_changed(),
             # an opened point's gap jumps by OPEN_GAP with no motion: no work is booked
             lambda s: self.energy.rebase_gap(s.operator_gap())]
         self.size_scale = SizeScale(joints, solver, self.energy)
-        self.snapshots = Snapshots(self.n_steps, scene.output.snapshots)
+        self.snapshots = Snapshots(self.n_steps, inp.output.snapshots)
         self._history = StepHistory(self.history_keys, model.crest_dofs)
         self.heel_opening = HeelOpening(joints.slices[0])
         self.stop_rule = CollapseRule(model, joints, ts.max_slip, ts.max_rotation)
-        self.progress_bar = Progress(progress, self.n_steps,
-                                     f"{scene.name} a={scene.interface.alpha:g}", self._history)
+        self.progress_bar = Progress(progress, self.n_steps, inp.label, self._history)
         self.parts = [p for p in (
             self.solver_part, self.uplift, self.screening, self.reservoir, joints, self.safety,
             self.energy, self._history, self.guard, self.size_scale, self.pairing,
@@ -247,13 +245,13 @@ class Analysis:
             if p is not None]
         if progress:
             c = self.chars
-            log(f"[{scene.name}] nfree {model.nfree}, joints {', '.join(joints.names)} "
+            log(f"[{inp.name}] nfree {model.nfree}, joints {', '.join(joints.names)} "
                 f"({iface.npts} interface points), f1 = {self.modal.frequencies_hz[0]:.3f} Hz, "
                 f"a0 = {self.damping['a0']:.4g} 1/s, a1 = {self.damping['a1']:.4g} s; t1 = "
                 f"{c['t1']:.3e} s, t2 = {c['t2']:.3e} s (Eq. 11); record: {gm.label}"
                 f"{' [SYNTHETIC]' if gm.synthetic else ''}")
             if self.window_note:
-                log(f"[{scene.name}] note: {self.window_note}")
+                log(f"[{inp.name}] note: {self.window_note}")
 
     @property
     def history(self):
@@ -280,7 +278,7 @@ class Analysis:
         returns ``static_info`` (summary.json ``static``)."""
         if self._restart is not None:
             return self._resume()
-        solver, scene = self.solver, self.scene
+        solver = self.solver
         t = time.perf_counter()
         rep, self.f_static, self.f_reaction = solve_pre_earthquake(solver, self.f_base,
                                                                    self.uplift, self.absorbing)
@@ -288,7 +286,7 @@ class Analysis:
             self.screening.static(solver.u)
         t_static = time.perf_counter() - t
         ax0, ay0 = self.ax[0], self.ay[0]
-        if scene.geometry.foundation == "massless":      # M singular on the rock
+        if self.inputs.massless:                          # M singular on the rock
             initial_acceleration(solver, self.f_static - self.Mrx * ax0 - self.Mry * ay0,
                                  massless_dofs(self.model.M), self.damping["a1"])
         else:
@@ -342,8 +340,8 @@ class Analysis:
         self.timings["static"] = self.static_info["wall"]
         self.k = self.resumed_from = int(meta["step"])
         if self.progress:
-            self.log(f"[{self.scene.name}] resuming from step {self.k} "
-                     f"(t = {self.k * self.scene.time.dt:.4g} s)")
+            self.log(f"[{self.inputs.name}] resuming from step {self.k} "
+                     f"(t = {self.k * self.inputs.time.dt:.4g} s)")
         self._prepare_loop()
         return self.static_info
 
@@ -383,7 +381,7 @@ class Analysis:
         if self.progress_bar.bar is None:
             self.progress_bar.open(self.k)
             self._t_loop = time.perf_counter()
-        solver, scene = self.solver, self.scene
+        solver, name = self.solver, self.inputs.name
         k = self.k + 1
         tk = self.times[k]
         f_k = seismic_load(self.f_static, self.Mrx, self.Mry, self.ax[k], self.ay[k])
@@ -391,8 +389,8 @@ class Analysis:
             f_k = f_k + self.absorbing.force(solver.time + solver.dt)
         rep, f_used, en, scan = self._solve(k, tk, f_k)
         self.k = k
-        ctx = StepContext(k=k, t=tk, dt=scene.time.dt, solver=solver, report=rep, load=f_used,
-                          energy=en, scan=scan, static_loads=self._static_loads)
+        ctx = StepContext(k=k, t=tk, dt=self.inputs.time.dt, solver=solver, report=rep,
+                          load=f_used, energy=en, scan=scan, static_loads=self._static_loads)
         for part in self.parts:                   # in their order (run.parts)
             part.after_step(ctx)
         if ctx.stop is not None:
@@ -405,7 +403,7 @@ class Analysis:
             self.stopped = {"reason": f"{verdict}: {coll['reason']}", "t": coll["time"],
                             "step": k, "verdict": verdict}
             if self.progress:
-                self.progress_bar.write(f"[{scene.name}] stopped at t = {tk:.3f} s: "
+                self.progress_bar.write(f"[{name}] stopped at t = {tk:.3f} s: "
                                         + self.stopped["reason"])
             return False
         return k < self.n_steps
@@ -415,7 +413,7 @@ class Analysis:
         (``run.energy.EnergyGuard``: a step that breaks the energy balance is repeated from
         the committed state in 2, 4, ... uniform sub-steps). Returns (the solver's report,
         the load used, the energy row, the joints' scan)."""
-        solver, scene = self.solver, self.scene
+        solver, name = self.solver, self.inputs.name
         # what a step changes, to repeat it: the solver's committed state with its coupled
         # water's, the uplift in force and the energy budget's accumulators
         repeat = (self.solver_part, self.uplift, self.energy)
@@ -425,7 +423,7 @@ class Analysis:
             try:
                 rep, f_used = self.uplift.step(solver, f_k, split)  # f_used: with the uplift
             except SolverError as e:
-                raise SolverError(f"{scene.name}: step {k} (t = {tk:.4f} s): {e}") from None
+                raise SolverError(f"{name}: step {k} (t = {tk:.4f} s): {e}") from None
             st = solver.state
             # the per-point work of the joints', energy's and safety's measures, once
             scan = self.joints.scan(st, solver.g, solver.t)
@@ -440,7 +438,7 @@ class Analysis:
             failed += rep.iterations + rep.iterations_failed
             split += 1
             if split > GUARD_SPLITS:
-                raise SolverError(f"{scene.name}: step {k} (t = {tk:.4f} s): {why}, even in "
+                raise SolverError(f"{name}: step {k} (t = {tk:.4f} s): {why}, even in "
                                   f"{2 ** GUARD_SPLITS} sub-steps; committed state is at "
                                   f"t = {self.times[k - 1]:.6g} s")
             for p, d in zip(repeat, saved):
@@ -482,7 +480,7 @@ class Analysis:
         complete); the checkpoints are removed. Returns the summary dict."""
         self.close()
         self.solver.release_steps()        # memory for the outputs (the loop is over)
-        scene, solver, joints, out = self.scene, self.solver, self.joints, self.out
+        solver, out = self.solver, self.out
         self.timings["dynamic"] = self._dynamic_wall()
         snaps = self.snapshots
         if self.stopped is not None and snaps.last_step != self.stopped["step"]:
@@ -497,7 +495,7 @@ class Analysis:
         post = (self.post_check.collapsed(ended) if ended is not None
                 else self.post_check.run(solver, self.f_base))
         post["wall"] = time.perf_counter() - t_pe
-        safety_sum = self.safety.summary(H, scene.time.dt)
+        safety_sum = self.safety.summary(H, self.inputs.time.dt)
         files.extend(self.outputs.safety(self, H, post, safety_sum))
         summary = self._summary(H, post, safety_sum, files)
         atomic_write_json(out / "summary.json", summary)     # LAST: the run is complete
@@ -531,12 +529,12 @@ class Analysis:
         return files
 
     def _summary(self, H, post, safety_sum, files) -> dict:
-        scene, model, gm, iface = self.scene, self.model, self.gm, self.model.interface
+        inp, model, gm, iface = self.inputs, self.model, self.gm, self.model.interface
         snaps = self.snapshots.data
         summary = {
             "scene": self.scene_d,
             "label": gm.label + (" [SYNTHETIC]" if gm.synthetic else ""),
-            "ground_motion": sm.ground_motion_summary(scene, gm, self.window_note),
+            "ground_motion": sm.ground_motion_summary(inp.record_start, gm, self.window_note),
             "formulation": FORMULATION,
             "stopped": self.stopped,
             "verdict": ("collapse" if self.collapse is not None else "undetermined"
@@ -545,7 +543,7 @@ class Analysis:
             "undetermined": self.undetermined,
             "finite_sliding": {"joints_paired": [j[0] for j in self.pairing.joints],
                                "repairings": int(self.pairing.repairs),
-                               "tolerance": scene.solver.pairing_tolerance},
+                               "tolerance": inp.solver.pairing_tolerance},
             "crest_point": list(model.crest_point),
             "crest_displacement_note": "upstream crest corner, relative to the rigid ground "
                                        "(rock bottom); includes the static displacement",
@@ -554,7 +552,7 @@ class Analysis:
                      "interface_points": int(iface.npts)},
             "frequencies_hz": [float(f) for f in self.modal.frequencies_hz],
             "rayleigh": self.damping,
-            "law": law_parts(scene),
+            "law": inp.law,
             "reference_parameters": self.reference,
             "final_parameters": self.joints.params()[0],
             "joints": sm.joint_results(self.joints, H, snaps),
@@ -604,27 +602,28 @@ def prepare(scene, outdir=None, *, resume: bool = False, progress: bool = True,
                         f"outputs=ngs_driver.post.outputs.RunOutputs(plots={plots!r})")
     t0 = time.perf_counter()
     gm = validate(scene)                      # nothing is written for a bad scene
+    inputs = resolve(scene, gm)               # the scene resolved once (setup.inputs)
     key = out_key or ("outdir" if outdir is not None else "output.dir")
-    out = pathlib.Path(outdir if outdir is not None else scene.output.dir)
+    out = pathlib.Path(outdir if outdir is not None else inputs.output.dir)
     probe_writable(out, key)                  # created and writable before any work
     lock = FolderLock(out, key).acquire()     # one run per folder (docs/solver.md §8.5)
     try:
         why = reuse_error(out, resume=resume, overwrite=overwrite, key=key)
         if why is not None:
             raise FolderError(why)
-        checkpoints = Checkpointer(out, scene.output.checkpoint_every)
-        restart = _restart(scene, out, checkpoints, scene.to_dict()) if resume else None
+        checkpoints = Checkpointer(out, inputs.output.checkpoint_every)
+        restart = _restart(out, checkpoints, inputs.scene_dict) if resume else None
         for note in checkpoints.notes:        # a damaged newest checkpoint passed over
-            log(f"[{scene.name}] warning: {note}")
+            log(f"[{inputs.name}] warning: {note}")
         clean_temporaries(out)                # a killed run's half-written files
         previous = finished_files(out)
         if overwrite and not resume:          # asked for: the old checkpoints go now, the
             checkpoints.remove_all()          # finished run's files at the end (finish)
         t = time.perf_counter()
         if model is None:
-            model = build_from_scene(scene)
+            model = build_from_inputs(model_inputs(scene))
         t_build = time.perf_counter() - t
-        a = Analysis(scene, out, gm, model, checkpoints, restart, progress=progress,
+        a = Analysis(scene, inputs, out, gm, model, checkpoints, restart, progress=progress,
                      outputs=outputs, log=log, t0=t0, t_build=t_build)
         a.lock, a.previous_files = lock, previous
         a.outputs.start(a)

@@ -122,15 +122,16 @@ def resume_difference(have: dict, want: dict) -> str | None:
     return scene_difference(_resumable(have), _resumable(json.loads(json.dumps(want))))
 
 
-def checkpoint_scene_difference(scene, directory) -> str | None:
-    """The first key in which ``scene`` differs from the scene of the checkpoint in
-    ``directory`` that a resume would use (``resume_difference``), or None. CheckpointDamaged
-    when no checkpoint there can be read, ValueError when it has another format."""
+def checkpoint_scene_difference(scene_dict: dict, directory) -> str | None:
+    """The first key in which ``scene_dict`` (a scene's ``to_dict()``) differs from the scene
+    of the checkpoint in ``directory`` that a resume would use (``resume_difference``), or
+    None. CheckpointDamaged when no checkpoint there can be read, ValueError when it has
+    another format."""
     meta, _ = Checkpointer(directory, 0).load()
     why = format_error(meta, directory)
     if why is not None:
         raise ValueError(why)
-    return resume_difference(meta.get("scene") or {}, scene.to_dict())
+    return resume_difference(meta.get("scene") or {}, scene_dict)
 
 
 def format_error(meta: dict, directory) -> str | None:

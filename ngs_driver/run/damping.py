@@ -12,20 +12,19 @@ __all__ = ["rayleigh_damping", "damping_matrix", "low_rank_damping", "modes_to_c
 N_MODES = 6        # the modes a run computes (summary.json frequencies_hz) ...
 
 
-def modes_to_compute(scene, n: int = N_MODES) -> int:
-    """... or more, when the damping is set at a higher mode (``damping.modes`` up to 50)."""
-    d = scene.damping
+def modes_to_compute(d, n: int = N_MODES) -> int:
+    """... or more, when the damping is set at a higher mode (``damping.modes`` up to 50).
+    d: the scene's [damping] table."""
     if d.frequencies or not d.modes:
         return n
     return max(n, max(int(m) for m in d.modes))
 
 
-def rayleigh_damping(modal, scene, restart: dict | None = None) -> dict:
+def rayleigh_damping(modal, d, restart: dict | None = None) -> dict:
     """The Rayleigh coefficients (dict of ``fe.modal.damping_from_modes``). ARPACK's random
     start vector changes the last bits of the eigenvalues from call to call: a0, a1 are rounded
     to 10 significant digits so that runs (and restarts) are bitwise repeatable; a restart
-    takes the checkpoint's values (``restart``: its meta)."""
-    d = scene.damping
+    takes the checkpoint's values (``restart``: its meta). d: the scene's [damping] table."""
     damp = damping_from_modes(modal, d.ratio, d.modes, d.frequencies or None, d.model)
     damp["a0_unrounded"], damp["a1_unrounded"] = damp["a0"], damp["a1"]
     damp["a0"], damp["a1"] = float(f"{damp['a0']:.10g}"), float(f"{damp['a1']:.10g}")

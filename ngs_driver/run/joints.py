@@ -176,16 +176,17 @@ class Joints(Part):
 
     name = "joints"
 
-    def __init__(self, scene, iface):
-        tables = scene.joint_tables()
-        self.names = [n for n, _ in tables]
-        self.tables = [t for _, t in tables]
+    def __init__(self, joints, iface):
+        """joints: the scene's ``setup.JointInput``s (``setup.resolve(scene).joints``)."""
+        self.names = [j.name for j in joints]
+        self.tables = [j.law for j in joints]
+        self._cracked = [j.cracked for j in joints]
         self.slices = [iface.parts[n] for n in self.names]
         self.x, self.y, self.w = iface.x, iface.y, iface.w
         self.reference = [build_law(t) for t in self.tables]
         self.scalings = [build_scaling(t, law) for t, law in zip(self.tables, self.reference)]
-        self.laws = [sc.update(law, 0.0) if sc is not None else law
-                     for sc, law in zip(self.scalings, self.reference)]
+        self.laws = [scal.update(law, 0.0) if scal is not None else law
+                     for scal, law in zip(self.scalings, self.reference)]
         self.sizes = [0.0] * len(self.names)
         # the failed length each law was last updated for: the update is a function of it
         # alone, so an unchanged length leaves the law and the size as they are (skipped)
@@ -250,8 +251,8 @@ class Joints(Part):
     def cracked_points(self) -> np.ndarray:
         """Bool mask of the points of the joints that start cracked (``cracked = true``)."""
         mask = np.zeros(self.w.size, bool)
-        for tbl, sl in zip(self.tables, self.slices):
-            if getattr(tbl, "cracked", False):
+        for cracked, sl in zip(self._cracked, self.slices):
+            if cracked:
                 mask[sl] = True
         return mask
 
@@ -266,8 +267,8 @@ class Joints(Part):
         sums)."""
         changed = False
         deb = None
-        for i, (sc, sl) in enumerate(zip(self.scalings, self.slices)):
-            if sc is None:
+        for i, (scal, sl) in enumerate(zip(self.scalings, self.slices)):
+            if scal is None:
                 self.sizes[i] = 0.0
                 continue
             if scan is not None:
@@ -278,11 +279,11 @@ class Joints(Part):
                 b = float(np.sum(self.w[sl][deb[sl]]))     # crack_measures(...)[0]
             if b == self._b[i]:
                 continue
-            new = sc.update(self.laws[i], b)
+            new = scal.update(self.laws[i], b)
             if new.cohesive != self.laws[i].cohesive or new.friction != self.laws[i].friction:
                 self.laws[i] = new
                 changed = True
-            self.sizes[i] = sc.size(b)
+            self.sizes[i] = scal.size(b)
             self._b[i] = b
         return changed
 

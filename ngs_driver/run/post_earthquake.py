@@ -25,8 +25,8 @@ def resultant_verdict(fs: float) -> str:
 
 
 class PostEarthquakeCheck:
-    def __init__(self, scene, model, joints, safety, uplift, absorbing=None):
-        self.scene, self.joints = scene, joints
+    def __init__(self, max_slip: float, model, joints, safety, uplift, absorbing=None):
+        self.max_slip, self.joints = float(max_slip), joints
         self.safety, self.uplift, self.absorbing = safety, uplift, absorbing
         # dam DOFs and the x / y components (the load resultants when no equilibrium exists)
         self.dam = np.asarray(model.dam_dofs, bool)
@@ -38,7 +38,7 @@ class PostEarthquakeCheck:
         """The largest mean slip a static solve may add before it counts as no equilibrium
         (a frictional joint that cannot hold the loads slides without bound): 0.05 m, or
         time.max_slip if smaller."""
-        return min(self.scene.time.max_slip, 0.05)
+        return min(self.max_slip, 0.05)
 
     def run(self, solver, f_base_static) -> dict:
         """``f_base_static``: gravity + water (+ tailwater), without uplift. A solve that finds

@@ -15,8 +15,8 @@ __all__ = ["Screening"]
 class Screening(Part):
     name = "screening"
 
-    def __init__(self, scene, model):
-        self.ft = float(scene.screening.tensile_strength)
+    def __init__(self, tensile_strength: float, model):
+        self.ft = float(tensile_strength)
         es = element_stress(model)
         self.S, self.x, self.y, self.triangles = es.S, es.x, es.y, es.triangles
         n = self.x.size

@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..setup.uplift import heads, joint_extent, pressure_profile
+from ..setup.uplift import pressure_profile
 from .checkpoint import SolverPart
 from .joints import debonded_measures
 from .parts import Part
@@ -29,18 +29,19 @@ __all__ = ["UpliftField", "Uplift"]
 class UpliftField:
     """The pore pressure at the interface points (all joints) and its load vector."""
 
-    def __init__(self, scene, iface, names, slices):
+    def __init__(self, joints, rho_g, iface, names, slices):
+        """joints: the ``setup.JointInput``s (uplift tables, extents, heads); rho_g: the
+        water's density x gravity [N/m^3]."""
         self.names, self.slices = list(names), list(slices)
         self.B, self.w = iface.B, iface.w
         self.BT = iface.B.T.tocsr()
-        tables = dict(scene.uplift_tables())
-        rho_g = scene.loads.water_density * scene.loads.gravity
+        given = {j.name: j for j in joints}
         self.spec = []
         for name, sl in zip(self.names, self.slices):
-            up = tables[name]
-            y, xu, xd = joint_extent(scene, name)
-            hh, ht = heads(scene, y, up)
-            self.spec.append((up, iface.x[sl] - xu, xd - xu, rho_g * hh, rho_g * ht))
+            j = given[name]
+            xu, xd = j.x_upstream, j.x_downstream
+            self.spec.append((j.uplift, iface.x[sl] - xu, xd - xu, rho_g * j.head,
+                              rho_g * j.tail))
         self.active = any(s[0].model != "none" for s in self.spec)
         self.state_dependent = any(s[0].model != "none" and s[0].in_crack != "unchanged"
                                    for s in self.spec)
@@ -84,8 +85,10 @@ class Uplift(Part):
 
     MAX_FIXED_POINT = 20
 
-    def __init__(self, scene, iface, joints):
-        self.field = UpliftField(scene, iface, joints.names, joints.slices)
+    def __init__(self, inputs, iface, joints):
+        """inputs: the run's ``setup.RunInputs`` (its joints and rho_g)."""
+        self.field = UpliftField(inputs.joints, inputs.rho_g, iface, joints.names,
+                                 joints.slices)
         self.active = self.field.active
         self.state_dependent = self.field.state_dependent
         self.p_static = np.zeros(joints.w.size)

@@ -9,7 +9,8 @@ from __future__ import annotations
 
 import re
 
-__all__ = ["build_law", "build_scaling", "law_parts", "validate_laws", "characteristic_times"]
+__all__ = ["build_law", "build_scaling", "law_parts", "validate_laws", "characteristic_times",
+           "paper_k0"]
 
 # the scene key of each law parameter (class.field -> [interface] key)
 _SCENE_KEY = {"CohesiveParams.sigma_max": "sigma_max", "CohesiveParams.tau_max": "tau_max",
@@ -110,3 +111,14 @@ def characteristic_times(scene, l_Nc: float) -> dict:
     r = ct(m.E, m.rho, l_Nc, scene.interface.sigma_max, a0)
     return {"t1": float(r.t1), "t2": float(r.t2), "c_L": float(r.c_L), "a0": a0, "l_Nc": l_Nc,
             "material": "dam concrete", "equation": "paper Eq. 11"}
+
+
+def paper_k0(sigma_max: float = 3e6, tau_max: float = 3e6, G_I: float = 250.0,
+             lambda_max: float = 0.2, ratio_lTc_lNc: float = 1.0) -> tuple[float, float]:
+    """Initial (bonded) stiffness [Pa/m] (normal, tangential) of the paper's law:
+    k_N = sigma_max/(lambda_max l_Nc), k_T = tau_max l_Nc/(lambda_max l_Tc^2),
+    l_Nc = 2 G_I/sigma_max, l_Tc = ratio l_Nc (docs/law.md §2).
+    Paper values: 3e6 / (0.2 * 1.667e-4) = 9.0e10 Pa/m."""
+    l_nc = 2.0 * G_I / sigma_max
+    l_tc = ratio_lTc_lNc * l_nc
+    return sigma_max / (lambda_max * l_nc), tau_max * l_nc / (lambda_max * l_tc ** 2)

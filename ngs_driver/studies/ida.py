@@ -187,7 +187,8 @@ def _base_slice(scene, model):
     when the model has a single interface."""
     try:
         from ..run.joints import Joints
-        return Joints(scene, model.interface).slices[0]
+        from ..setup import joint_inputs
+        return Joints(joint_inputs(scene), model.interface).slices[0]
     except (ImportError, AttributeError):
         return slice(None)
 

@@ -65,7 +65,8 @@ def scale_factor(scene, im: str, target: float, T1: float | None = None) -> tupl
 def first_period(scene) -> dict:
     """T1 [s] of the scene's dam (bonded interface), with the frequencies; builds the model."""
     from ..fe.model import build_from_scene
-    from ..fe.modal import k0_from_scene, modal_analysis
+    from ..fe.modal import modal_analysis
+    from ..setup import k0_from_scene
     model = build_from_scene(scene)
     k0n, k0t = k0_from_scene(scene)
     res = modal_analysis(model, 6, k0n, k0t)
