@@ -250,7 +250,7 @@ class Solver:
                              doc="a step whose energy jump exceeds this fraction of its work "
                                  "(+ 1e-3 of the run's energy scale) is cut and repeated in "
                                  "sub-steps, never accepted (run.energy.EnergyGuard, "
-                                 "docs/solver.md §9.1); 0: off (only to show what it stops)")
+                                 "docs/run.md §9.1); 0: off (only to show what it stops)")
     pairing_tolerance: float = _f(0.25, lo=0.0, hi=10.0, lo_open=True,
                                   doc="finite sliding: a joint is paired anew with the face "
                                       "below when a point has slid this fraction of the "

@@ -202,7 +202,7 @@ SCENES = [
      r"ground_motion.polarity = 'reversed': not allowed, choose one of \['normal', 'inverse'\]"),
     (["ground_motion.record='pulse:square:0.5:0.4'"],
      r"ground_motion.record = 'pulse:square:0.5:0.4': not a pulse; allowed: 'pulse:<shape>"),
-    # physical sanity at --dry-run (issue 33; setup/sanity.py, docs/solver.md §8.7)
+    # physical sanity at --dry-run (issue 33; setup/sanity.py, docs/run.md §8)
     (["interface.contact_stiffness=1e5"],
      r"interface.contact_stiffness = 100000.0 Pa/m: under the dam's weight .*overlap by "
      r"12.57 m, more than 1 % of its smallest element \(0.1 m\).*allowed: >= 1.26e\+09 Pa/m \(the "

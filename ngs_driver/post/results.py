@@ -31,7 +31,7 @@ def write_run_outputs(out, model, scene, gm, H, snaps, solver, u_static, joints,
                                 "crack_length_heel = contiguous debonded length from the heel; "
                                 "<joint>_* the same per joint (crack_length_upstream from its "
                                 "upstream end); energy terms [J/m] from the static state "
-                                "(docs/solver.md §9)"])
+                                "(docs/run.md §9)"])
     files.append("timeseries.csv")
     iface = model.interface
     for name, sl in zip(joints.names, joints.slices):

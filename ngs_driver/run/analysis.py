@@ -606,7 +606,7 @@ def prepare(scene, outdir=None, *, resume: bool = False, progress: bool = True,
     key = out_key or ("outdir" if outdir is not None else "output.dir")
     out = pathlib.Path(outdir if outdir is not None else inputs.output.dir)
     probe_writable(out, key)                  # created and writable before any work
-    lock = FolderLock(out, key).acquire()     # one run per folder (docs/solver.md §8.5)
+    lock = FolderLock(out, key).acquire()     # one run per folder (docs/run.md §6)
     try:
         why = reuse_error(out, resume=resume, overwrite=overwrite, key=key)
         if why is not None:

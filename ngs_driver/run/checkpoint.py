@@ -153,7 +153,7 @@ def _sha256(data: bytes) -> str:
 
 
 class Checkpointer:
-    """Checkpoints of a run, each a set committed at once (docs/solver.md §8.5):
+    """Checkpoints of a run, each a set committed at once (docs/run.md §6):
 
     * ``checkpoint_<step>.npz``: every array of the run's state at the step (solver, uplift,
       water, history), written first;

@@ -1,28 +1,10 @@
-"""When a run stops: collapse, or the model's range left (docs/sliding.md §6).
+"""When a run stops: collapse, or the model's range left. The rule, its sources and its
+reasons: docs/run.md §4 (written there once).
 
-A run goes to the end of its record unless a joint collapses:
-
-* **unbounded sliding**: the joint is cracked over its whole length, it slides (its mean
-  slip changes faster than ``SLIDING_RATE``), and friction alone can no longer hold the static
-  loads of the cracked state: FS_static = f max(N_s, 0) / |T_s| < 1, with N_s, T_s the static
-  loads (gravity, hydrostatic, the current uplift, tailwater) resolved on the blocks above the
-  joint and f the joint's current friction (EM 1110-2-2100 eq. 3-1 without cohesion, the
-  post-earthquake check applied while it slides). Nothing then brings the block to rest:
-  without the earthquake it accelerates down the slope of its static loads. (A joint with a
-  bonded ligament left is not collapsing yet: the ligament either holds or debonds, and then
-  the rule applies);
-* **sliding off**: the mean slip of a lift joint reaches the joint's length: the block above
-  has left the block below (run/pairing opens every point that has no face below it).
-
-Toppling (the block's resultant outside the joint) needs rotations near atan(b/h) (0.49 rad for
-koyna_1967's top block); the small-rotation kinematics end well before (docs/solver.md §11),
-so in this model it cannot be reached: a run that gets there stops first at the range below.
-
-Leaving the model's range is not a collapse: |rotation of the block above a joint|
-> ``time.max_rotation`` (the small-rotation kinematics, at most ``MAX_ROTATION_SUPPORTED``)
-or |slip| > ``time.max_slip`` (the user's bound of small-displacement sliding) stops the run
-with the verdict **undetermined**, naming the range.
-
+A collapse is unbounded sliding (a joint cracked over its whole length slides faster than
+``SLIDING_RATE`` and FS_static = f max(N_s, 0) / |T_s| < 1 on the blocks above it) or sliding
+off (a lift joint's mean slip reaches its length); |rotation| > ``time.max_rotation`` (at most
+``MAX_ROTATION_SUPPORTED``) or |slip| > ``time.max_slip`` is the verdict undetermined.
 ``CollapseRule.check`` returns None or the stop entry: joint, time, step, reason, the measure
 that triggered it and ``verdict`` ("collapse" or "undetermined"; "range" for the latter).
 """

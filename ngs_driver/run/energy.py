@@ -1,4 +1,4 @@
-"""The energy budget of a run, step by step (docs/solver.md §9).
+"""The energy budget of a run, step by step (docs/run.md §9).
 
 From the static state (t = 0) on, per metre of dam [J/m]:
 
@@ -56,7 +56,7 @@ from ..solve.products import FusedPair, pair_products
 __all__ = ["EnergyBudget", "EnergyGuard", "stored_energy", "ENERGY_KEYS", "GUARD_FRACTION",
            "GUARD_FLOOR", "GUARD_SPLITS"]
 
-# The energy guard (``EnergyGuard``, docs/solver.md §9.1): a step that creates more energy than
+# The energy guard (``EnergyGuard``, docs/run.md §9.1): a step that creates more energy than
 # GUARD_FRACTION of the work done in it plus GUARD_FLOOR of the run's energy scale is cut.
 # 0.5: on koyna_1967 (10 s, 2026-11-27) the largest ratio of created energy to work is 0.13
 # (t = 4.912 s: 7.0e3 J/m for 5.4e4 J/m, 0.21 of its limit), 99.9 % of the steps are below
@@ -338,7 +338,7 @@ class EnergyBudget:
 
 
 class EnergyGuard:
-    """No verdict from a step that breaks the energy balance (docs/solver.md §9.1).
+    """No verdict from a step that breaks the energy balance (docs/run.md §9.1).
 
     From two consecutive rows of the budget (``EnergyBudget.step``), the step's
 
@@ -354,7 +354,7 @@ class EnergyGuard:
     dissipation (generalized alpha, HHT) only increases it. The water's share of the scheme's
     exchange, E_water_alg (either sign, fixed by the scheme's algebra), is booked apart and
     not in it; a water stepped otherwise (pine_flat's, stepped twice by the uplift's fixed
-    point until solver_snapshot held it, docs/solver.md §9.1) still shows. A step is
+    point until solver_snapshot held it, docs/run.md §9.1) still shows. A step is
     rejected when
 
         jump > GUARD_FRACTION * work + GUARD_FLOOR * scale,
@@ -445,4 +445,4 @@ class EnergyGuard:
                 "guard": f"a step is cut when the energy it creates, -d(residual + E_alg), > "
                          f"{self.fraction:g} x (|d W_ext| + |d W_water| + |d W_joints| + "
                          f"d E_damp) + {self.floor:g} x max(static strain energy, |W_ext| + "
-                         f"|W_water|); docs/solver.md §9.1"}
+                         f"|W_water|); docs/run.md §9.1"}

@@ -89,7 +89,7 @@ def energy_summary(H, keys) -> dict:
                           + "- (E_kin + E_bulk + E_damp + E_alg + E_stored + E_diss + E_scaling"
                           + (" + E_water_kin + E_water_pot + E_water_radiated + "
                              "E_water_absorbed + E_water_alg" if water else "")
-                          + "), from the static state; docs/solver.md (energy budget), "
+                          + "), from the static state; docs/run.md §9 (energy budget), "
                             "docs/real_dams.md (water)"}
 
 
