@@ -18,6 +18,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, get_type_hints
 
+from .section import Section, read_profile_csv
+
 SCENE_DIR = Path(__file__).with_name("scenes")
 
 # The default section: the Koyna non-overflow monolith (Chopra & Chakrabarti 1973), as the
@@ -307,7 +309,6 @@ class Scene:
 
     @property
     def section(self):
-        from .section import Section
         return Section(self.geometry.profile)
 
     def joint_tables(self) -> list:
@@ -471,7 +472,6 @@ def _build(cls, raw: dict, path: str):
         else:
             kw[name] = _check_scalar(p, val, typ, f.metadata)
     if cls is Geometry and kw.get("profile_file"):
-        from .section import read_profile_csv
 
         if "profile" in raw:
             raise ValueError(f"{path}.profile_file = {kw['profile_file']!r}: give either "
@@ -541,7 +541,6 @@ def _build_joints(val, raw_interface, path, raw_uplift=None):
 
 def _scene_checks(sc):
     """Checks across sections (geometry vs loads vs joints); raises naming the key."""
-    from .section import Section
 
     g = sc.geometry
     try:

@@ -6,10 +6,12 @@ from __future__ import annotations
 from pathlib import Path
 
 from ..fe.modal import damping_from_modes, modal_analysis
-from ..setup import joint_inputs, k0_from_scene
+from ..fe.model import build_from_scene
+from ..fe.reservoir import modal_response
 from ..post.modal import write_frequency_response, write_modal_json
 from ..run.damping import modes_to_compute
 from ..run.joints import Joints
+from ..setup import joint_inputs, k0_from_scene
 from ..solve.joint_laws import initial_stiffness
 
 __all__ = ["run_modal", "MEASURED_PERIODS", "measured_comparison"]
@@ -55,7 +57,6 @@ def measured_comparison(scene, fundamental) -> list[dict]:
 def run_modal(scene, out_dir=None, n_modes: int = 6, model=None):
     """Build the scene's model, run the modal analysis, write ``modal.json`` to out_dir
     (default: scene.output.dir).  Returns (model, ModalResult, damping dict)."""
-    from ..fe.model import build_from_scene
 
     md = model if model is not None else build_from_scene(scene)
     kn, kt = k0_from_scene(scene)
@@ -69,7 +70,6 @@ def run_modal(scene, out_dir=None, n_modes: int = 6, model=None):
              "plane": getattr(scene.materials, "plane", "strain"),
              "f1_hz": float(res.frequencies_hz[0])}
     if getattr(md, "reservoir", None) is not None:          # docs/reservoir.md
-        from ..fe.reservoir import modal_response
         info, resp = modal_response(md, scene.damping.ratio, kn, kt)
         if resp is not None:
             info["frequency_response"] = write_frequency_response(out, scene, resp)

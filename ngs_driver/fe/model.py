@@ -23,13 +23,16 @@ from typing import Any
 
 import numpy as np
 import scipy.sparse as sp
+import scipy.sparse.linalg as sla
 
-from . import geometry as geom
 from ..scene import KOYNA_PROFILE
-from ..setup import model_inputs
 from ..section import Section
+from ..setup import model_inputs
+from . import geometry as geom
+from .acoustic import add_water
 from .coupling import JointOperator, build_joint_operator, stack_joint_operators
 from .ngs_helpers import find_vertex, to_scipy, vec, vertex_xy_dofs
+from .reservoir import build_reservoir
 
 G_STANDARD = 9.81
 
@@ -117,6 +120,7 @@ class Model:
     # --- NGSolve views -----------------------------------------------------------------
     def to_gridfunction(self, u_free: np.ndarray, gf=None):
         """Full NGSolve GridFunction (zeros on fixed DOFs) from a free-DOF vector."""
+        # deferred: NGSolve is optional: the package imports without it
         import ngsolve as ngs
 
         if gf is None:
@@ -129,6 +133,7 @@ class Model:
     def displacement_cf(self, gf):
         """Displacement as one CoefficientFunction on the whole mesh (each region its own
         field; on the interface itself the value is side-dependent)."""
+        # deferred: NGSolve is optional: the package imports without it
         import ngsolve as ngs
 
         if len(self.regions) == 1:
@@ -137,6 +142,7 @@ class Model:
                                     default=ngs.CF((0, 0)))
 
     def strain_cf(self, gf):
+        # deferred: NGSolve is optional: the package imports without it
         import ngsolve as ngs
 
         if len(self.regions) == 1:
@@ -146,6 +152,7 @@ class Model:
 
     def stress_cf(self, gf):
         """In-plane Cauchy stress (plane strain or stress, per region), 2x2 CoefficientFunction."""
+        # deferred: NGSolve is optional: the package imports without it
         import ngsolve as ngs
 
         lam, mu = self._lame_cfs()
@@ -155,6 +162,7 @@ class Model:
     def von_mises(self, gf):
         """Von Mises stress [Pa] (plane strain: sigma_zz = nu (sigma_xx + sigma_yy); plane
         stress: sigma_zz = 0)."""
+        # deferred: NGSolve is optional: the package imports without it
         import ngsolve as ngs
 
         s = self.stress_cf(gf)
@@ -173,7 +181,6 @@ class Model:
     def static_solution(self, k_normal: float, k_tangential: float,
                         loads: str = "gravity+water") -> np.ndarray:
         """Static displacement with a linear elastic (bonded) interface."""
-        import scipy.sparse.linalg as sla
 
         f = np.zeros(self.nfree)
         if "gravity" in loads:
@@ -223,6 +230,7 @@ def build_model(foundation: str = "rock", order: int = 1, gauss_points: int = 3,
     include_rock_weight: add the rock self weight to f_gravity (default False: the
     in-situ state of the rock predates the dam).
     """
+    # deferred: NGSolve is optional: the package imports without it
     import ngsolve as ngs
 
     if rock_sides not in ("fixed", "roller", "free", "absorbing"):
@@ -253,7 +261,6 @@ def build_model(foundation: str = "rock", order: int = 1, gauss_points: int = 3,
                                   float("nan"), float("nan"), float("nan"), mesh.nv, mesh.ne,
                                   nseg)
     if reservoir is not None and reservoir.model == "acoustic":
-        from .acoustic import add_water        # region "water" glued to the upstream face
         mesh = add_water(mesh, reservoir)
     bnds = set(mesh.GetBoundaries())
     matching = "interface_rock" not in bnds
@@ -319,7 +326,6 @@ def build_model(foundation: str = "rock", order: int = 1, gauss_points: int = 3,
         M = sp.diags(np.asarray(M.sum(axis=1)).ravel()).tocsr()
     res_model = None
     if reservoir is not None and reservoir.model != "none":
-        from .reservoir import build_reservoir
         comps = [k for k, r in enumerate(mats) if r != "rock"]     # dam fields, fes order
         res_model = build_reservoir(reservoir, mesh, fes, free, water_density,
                                     None if len(mats) == 1 else comps,

@@ -5,6 +5,7 @@ import pathlib
 
 import numpy as np
 
+from ..setup import FORMULATION
 from . import plots as P
 from .files import write_damage_csv, write_timeseries_csv
 
@@ -14,7 +15,6 @@ __all__ = ["write_run_outputs"]
 def write_run_outputs(out, model, scene, gm, H, snaps, solver, u_static, joints,
                       plots=True, heel=None):
     """CSV + PNG of one run; returns the list of file names written."""
-    from ..setup import FORMULATION
 
     out = pathlib.Path(out)
     lab = gm.label + (" [SYNTHETIC record]" if gm.synthetic else "")

@@ -5,7 +5,9 @@ joints bonded at two modes or frequencies (Chopra, Dynamics of Structures, §11.
 Lysmer-Kuhlemeyer dashpots of absorbing rock boundaries."""
 from __future__ import annotations
 
+from ..fe.blocks import block_rigid_modes
 from ..fe.modal import damping_from_modes
+from ..solve.damping import DeformationDamping
 
 __all__ = ["rayleigh_damping", "damping_matrix", "low_rank_damping", "modes_to_compute"]
 
@@ -46,8 +48,6 @@ def low_rank_damping(model, joints, damp):
     mass term off each dam block's rigid motion on its joint (``solve.damping``); else None."""
     if damp.get("model") != "rayleigh_deformation" or damp["a0"] == 0.0:
         return None
-    from ..fe.blocks import block_rigid_modes
-    from ..solve.damping import DeformationDamping
     iface = model.interface
     R, cents = block_rigid_modes(model)
     return DeformationDamping(model.M, R, cents, iface.B, iface.x, iface.y, iface.w,

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..solve.newmark import SolverError
 from .checkpoint import SolverPart
 from .safety import FS_CAP, FS_CRITERION
 from .statics import spring_supported
@@ -44,7 +45,6 @@ class PostEarthquakeCheck:
         """``f_base_static``: gravity + water (+ tailwater), without uplift. A solve that finds
         no equilibrium reports FS from the load resultants (statically determinate for a
         rigid block) and says so."""
-        from ..solve.newmark import SolverError
 
         uplift = self.uplift
         if self.absorbing is not None:       # unsupported rock: the static springs again

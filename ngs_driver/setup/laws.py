@@ -9,6 +9,9 @@ from __future__ import annotations
 
 import re
 
+from interfacelaw import CohesiveParams, ContactParams, DamageParams, FrictionParams, InterfaceLaw
+from interfacelaw.scaling import SizeScaling, characteristic_times as ct
+
 __all__ = ["build_law", "build_scaling", "law_parts", "validate_laws", "characteristic_times",
            "paper_k0"]
 
@@ -33,8 +36,6 @@ def _table(obj):
 def build_law(tbl):
     """InterfaceLaw of an [interface] table (or of a scene's base table): cohesive + contact
     + friction + damage, each part only if the table asks for it."""
-    from interfacelaw import (CohesiveParams, ContactParams, DamageParams, FrictionParams,
-                              InterfaceLaw)
 
     i = _table(tbl)
     coh = CohesiveParams.from_fracture_energy(i.sigma_max, i.tau_max, i.G_I, i.lambda_max,
@@ -61,7 +62,6 @@ def validate_laws(scene) -> None:
         where = "interface" if name == "base" else f"joints[{k - 1}]"
         try:
             if tbl.friction < 0:     # the friction part is built only for f > 0: check it
-                from interfacelaw import FrictionParams
                 FrictionParams(f=tbl.friction)
             law = build_law(tbl)
             build_scaling(tbl, law)
@@ -80,7 +80,6 @@ def build_scaling(tbl, law):
     i = _table(tbl)
     if not i.scaling:
         return None
-    from interfacelaw.scaling import SizeScaling
 
     f_ref = i.friction if i.friction > 0 else 0.3
     # the stick stiffness of friction stays the joint's contact stiffness as the law scales
@@ -104,7 +103,6 @@ def law_parts(tbl) -> dict:
 def characteristic_times(scene, l_Nc: float) -> dict:
     """Paper Eq. 11 for the dam concrete: t1 = rho c_L l_Nc/(2 sigma_max), t2 = a0/c_L, with
     a0 the (bonded) base width of the scene's section."""
-    from interfacelaw.scaling import characteristic_times as ct
 
     m = scene.materials.dam
     a0 = scene.section.base_width

@@ -20,6 +20,9 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from scipy.optimize import minimize
+from scipy.special import log_ndtr
+from scipy.stats import norm
 
 # (name, demand column, threshold, description) -- the defaults (docs/studies.md). The
 # sliding thresholds span the range Chopra & Zhang (1991, J. Struct. Eng. 117(12):3572,
@@ -66,7 +69,6 @@ def parse_limit_state(text: str):
 
 
 def _logcdf(u):
-    from scipy.special import log_ndtr
     return log_ndtr(u)
 
 
@@ -81,7 +83,6 @@ def neg_log_likelihood(params, x, n, z) -> float:
 def fisher_se(x, n, theta: float, beta: float) -> tuple[float, float]:
     """Asymptotic standard errors (of ln theta, of beta) from the expected Fisher information
     I = sum_j n_j grad p_j grad p_j^T / (p_j (1 - p_j)) of the binomial stripes."""
-    from scipy.stats import norm
     x, n = np.asarray(x, float), np.asarray(n, float)
     u = (np.log(x) - math.log(theta)) / beta
     p = norm.cdf(u)
@@ -98,7 +99,6 @@ def fisher_se(x, n, theta: float, beta: float) -> tuple[float, float]:
 
 def fit_lognormal(levels, n, z) -> dict:
     """MLE of (theta, beta) from stripes (levels x_j > 0, n_j runs, z_j exceedances)."""
-    from scipy.optimize import minimize
     x = np.asarray(levels, float)
     n = np.asarray(n, float)
     z = np.asarray(z, float)
@@ -160,7 +160,6 @@ def fit_lognormal(levels, n, z) -> dict:
 
 def probability(x, theta: float, beta: float):
     """Lognormal fragility Phi(ln(x/theta)/beta); beta = 0 gives the step at theta."""
-    from scipy.stats import norm
     x = np.asarray(x, float)
     if beta == 0:
         return (x >= theta).astype(float)
