@@ -21,8 +21,8 @@ import os
 
 # One BLAS/OpenMP thread unless the user chose otherwise: the run's dense work is small (dot
 # products of 1e4 entries, 224 x 224 systems) and threaded BLAS on a busy 2-core machine spent
-# 86 s where one thread spent 9 s on the same 1 500 steps of the 0.2x Koyna run (measured
-# 2026-11-25, BENCHMARKS.md). Set before numpy is first imported (the env is read then).
+# 86 s where one thread spent 9 s on the same 1 500 steps of the 0.2x Koyna run
+# (BENCHMARKS.md). Set before numpy is first imported (the env is read then).
 for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(_var, "1")
 

@@ -1,4 +1,4 @@
-"""Item 3 of issue 31: no verdict from a step that breaks the physics.
+"""No verdict from a step that breaks the physics.
 
 * The re-pairing bug behind koyna_1967's "collapse" at 3.642 s: after a joint is paired anew
   (finite sliding) its gap carries an offset, g = B u + g_offset; the condensed Newton's

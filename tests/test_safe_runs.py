@@ -1,6 +1,6 @@
-"""Issue 33 (SAFE-RUNS): a results folder owned by one run, nothing deleted unasked, writable
+"""Safe runs: a results folder owned by one run, nothing deleted unasked, writable
 before any work, checkpoints committed as one set and a damaged one named (docs/run.md
-§6-8). Each test fails on the code before the issue (860c990)."""
+§6-8). Each test fails on the code before these checks (860c990)."""
 import json
 import os
 import pathlib

@@ -164,7 +164,7 @@ def add_water(mesh, res, h_max: float | None = None):
     # as above; the wetted face gets the water on its other side); without them NGSolve could
     # not tell the blocks' boundaries apart, and a block's space (definedon) took the vertices
     # of every block's outer boundary: with a lift joint below the water line the stiffness
-    # was singular (issue #23, koyna_1967).
+    # was singular (koyna_1967).
     from netgen.meshing import EdgeDescriptor
 
     eds = list(src.EdgeDescriptors())

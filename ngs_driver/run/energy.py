@@ -58,7 +58,7 @@ __all__ = ["EnergyBudget", "EnergyGuard", "stored_energy", "ENERGY_KEYS", "GUARD
 
 # The energy guard (``EnergyGuard``, docs/run.md §9.1): a step that creates more energy than
 # GUARD_FRACTION of the work done in it plus GUARD_FLOOR of the run's energy scale is cut.
-# 0.5: on koyna_1967 (10 s, 2026-11-27) the largest ratio of created energy to work is 0.13
+# 0.5: on koyna_1967 (10 s; docs/run.md §9.1) the largest ratio of created energy to work is 0.13
 # (t = 4.912 s: 7.0e3 J/m for 5.4e4 J/m, 0.21 of its limit), 99.9 % of the steps are below
 # 0.040; pine_flat (54.38 s) 0.021 (t = 27.9 s), 99.9 % below 0.0052, its largest jump 163 J/m
 # (6.88 s) 0.0074 of its limit; the step of the re-pairing bug (koyna_1967, 3.642 s) created
