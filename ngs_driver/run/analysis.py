@@ -20,9 +20,9 @@ load
 
 (relative formulation: rock bottom fixed, displacements relative to the rigid ground motion;
 with absorbing rock boundaries the displacements are total and the record enters as
-free-field forces, ``fe.foundation.AbsorbingRock``). Every step records the crest, the
-solver's work, each joint's measures, its sliding safety and the energy budget
-(``run.energy``) in the history (``run.history``).
+free-field forces, ``fe.foundation.AbsorbingRock``). After each step's solve the run's parts
+(``run.parts``: measures, safety, energy, history, size scale, pairing, snapshots, outputs,
+collapse rule, checkpoints, ...) each do their job in turn (docs/run.md §3).
 
 Files: the run writes its own -- summary.json (last, atomically), final_state.npz,
 checkpoint.json + checkpoint_<step>.npz every ``output.checkpoint_every`` steps, one set
@@ -120,13 +120,14 @@ class Analysis:
 
     Public attributes: ``scene`` (kept for the output stage; the run itself reads
     ``inputs``, the scene resolved by ``setup.resolve``), ``inputs``, ``out`` (results
-    folder), ``model``, ``joints``,
-    ``solver``, ``modal``, ``damping`` (the Rayleigh dict), ``gm`` (the ground motion),
-    ``times``, ``n_steps``, ``k`` (steps done), ``history``, ``snapshots``, ``energy``,
-    ``uplift``, ``safety``, ``screening``, ``absorbing``, ``reservoir``, ``stopped`` (None
-    or the stop rule's entry), ``static_info``, ``lock`` (the results folder's
-    ``run.folder.FolderLock``, released by ``finish`` or ``release()``), ``previous_files``
-    (the files of the finished run this one replaces, or None)."""
+    folder), ``model``, ``joints``, ``solver``, ``modal``, ``damping`` (the Rayleigh dict),
+    ``gm`` (the ground motion), ``times``, ``n_steps``, ``k`` (steps done), ``parts`` (the
+    parts of a step, in their order: ``run.parts``), ``history``, ``snapshots``, ``energy``,
+    ``guard``, ``uplift``, ``safety``, ``screening``, ``absorbing``, ``reservoir``,
+    ``pairing``, ``stop_rule``, ``heel``, ``stopped`` (None or the stop rule's entry),
+    ``static_info``, ``lock`` (the results folder's ``run.folder.FolderLock``, released by
+    ``finish`` or ``release()``), ``previous_files`` (the files of the finished run this one
+    replaces, or None)."""
 
     name = "run"              # its own share of a checkpoint (``checkpoint``)
 
@@ -145,10 +146,34 @@ class Analysis:
         self._restart = restart
         self.timings = {"build": t_build}
 
-        # ---- joints, loads besides gravity and water, safety measures ------------------------
-        iface = model.interface
-        self.joints = joints = Joints(inp.joints, iface)
-        self.uplift = Uplift(inp, iface, joints)
+        self.collapse = None
+        self.undetermined = None             # the stop entry when the model's range was left
+        self.window_note = inp.window_note
+        self.static_info = None
+        self.stopped = None
+        self.k = 0
+        self.resumed_from = None
+        self._t_loop = None
+        self._wall_before = 0.0
+        f_tail = self._build_joints(inp, model, gm)
+        C = self._build_solver(inp, model)
+        self._build_loads(inp, model, gm, C, f_tail)
+        self._build_parts(inp, model, progress, checkpoints)
+        if progress:
+            c, joints, iface = self.chars, self.joints, model.interface
+            log(f"[{inp.name}] nfree {model.nfree}, joints {', '.join(joints.names)} "
+                f"({iface.npts} interface points), f1 = {self.modal.frequencies_hz[0]:.3f} Hz, "
+                f"a0 = {self.damping['a0']:.4g} 1/s, a1 = {self.damping['a1']:.4g} s; t1 = "
+                f"{c['t1']:.3e} s, t2 = {c['t2']:.3e} s (Eq. 11); record: {gm.label}"
+                f"{' [SYNTHETIC]' if gm.synthetic else ''}")
+            if self.window_note:
+                log(f"[{inp.name}] note: {self.window_note}")
+
+    def _build_joints(self, inp, model, gm):
+        """The joints with their laws, the uplift, the sliding safety, the absorbing boundary,
+        the screening and the post-earthquake check; returns the tailwater's load (or None)."""
+        self.joints = joints = Joints(inp.joints, model.interface)
+        self.uplift = Uplift(inp, model.interface, joints)
         self.safety = SlidingSafety(joints, pressure=lambda: self.uplift.p)
         self.absorbing = None                # fe.foundation.AbsorbingRock
         if inp.absorbing:
@@ -156,16 +181,19 @@ class Analysis:
         self.screening = None
         if inp.screening_strength is not None:
             self.screening = Screening(inp.screening_strength, model)
-        f_tail = tailwater_load(model, inp.tailwater, inp.water_density, inp.gravity)
         self.post_check = PostEarthquakeCheck(inp.time.max_slip, model, joints, self.safety,
                                               self.uplift, self.absorbing)
         self.reference = sm.reference_parameters(inp.g_max, joints)
+        return tailwater_load(model, inp.tailwater, inp.water_density, inp.gravity)
 
-        # ---- modal analysis, damping, solver ---------------------------------------------------
+    def _build_solver(self, inp, model):
+        """The modal analysis with the joints bonded, the damping and the condensed solver
+        (joints that start cracked start with no cohesion); returns the damping matrix C."""
+        joints, iface = self.joints, model.interface
         t = time.perf_counter()
         k0p = initial_stiffness(joints.solver_law(), iface.npts)    # each joint its own k0
-        self.modal = modal_analysis(self._modal_model(), modes_to_compute(inp.damping), k0p[:, 0],
-                                    k0p[:, 1])
+        self.modal = modal_analysis(self._modal_model(), modes_to_compute(inp.damping),
+                                    k0p[:, 0], k0p[:, 1])
         self.damping = rayleigh_damping(self.modal, inp.damping,
                                         None if self._restart is None else self._restart[0])
         self.timings["modal"] = time.perf_counter() - t
@@ -178,9 +206,12 @@ class Analysis:
             st0 = solver.state.copy()
             st0.kappa[cracked] = 1.0
             solver.set_state(st0)
+        return C
 
-        # ---- the record on the time grid, the loads ---------------------------------------------
-        ts = inp.time
+    def _build_loads(self, inp, model, gm, C, f_tail):
+        """The record on the time grid, the reservoir, the loads, the energy budget and guard
+        (C: the damping matrix; f_tail: the tailwater's load or None)."""
+        ts, solver, joints = inp.time, self.solver, self.joints
         self.n_steps = int(round(ts.duration / ts.dt))
         self.times = ts.dt * np.arange(self.n_steps + 1)
         self.ax, self.ay = gm.at(inp.record_start + self.times)
@@ -190,8 +221,8 @@ class Analysis:
             Mrx, Mry = model.reservoir.seismic_vectors(Mrx, Mry)
             self.reservoir = ReservoirRun.create(model, solver, self.times, self.ax, self.ay,
                                                  total=self.absorbing is not None)
-        self.f_base = model.f_gravity + model.f_water + (np.zeros(model.nfree) if f_tail is None
-                                                         else f_tail)
+        self.f_base = model.f_gravity + model.f_water + (np.zeros(model.nfree)
+                                                         if f_tail is None else f_tail)
         if self.absorbing is not None:       # total displacements: the record enters as
             Mrx, Mry = 0.0 * Mrx, 0.0 * Mry  # free-field forces (``step``)
         self.Mrx, self.Mry = Mrx, Mry
@@ -201,7 +232,7 @@ class Analysis:
         self.chars = inp.characteristic_times
         # C = a0 M + a1 K (+ dashpots): the budget's damping work needs no product with C
         self.energy = EnergyBudget(
-            model.K, model.M, C, iface.w, joints,
+            model.K, model.M, C, model.interface.w, joints,
             rayleigh=(self.damping["a0"], self.damping["a1"]),
             C_extra=None if self.absorbing is None else self.absorbing.C,
             fluid=None if self.reservoir is None else self.reservoir.stepper,
@@ -211,21 +242,14 @@ class Analysis:
         # the wall time stays the last column (everything before it is deterministic)
         self.history_keys = (list(HIST_KEYS[:-1]) + joints.history_keys()
                              + self.safety.history_keys() + self.energy.keys() + ["wall"])
-        self.collapse = None
-        self.undetermined = None             # the stop entry when the model's range was left
-        self.window_note = inp.window_note
-        self.static_info = None
-        self.stopped = None
-        self.k = 0
-        self.resumed_from = None
-        self._t_loop = None
-        self._wall_before = 0.0
 
-        # ---- the parts of a step, in their order (run.parts): after each step each does its
-        # job; a checkpoint is each part's checkpoint(), a resume each part's restore()
+    def _build_parts(self, inp, model, progress, checkpoints):
+        """The parts of a step, in their order (``run.parts``): after each step each does its
+        job; a checkpoint is each part's ``checkpoint()``, a resume each part's ``restore()``."""
+        solver, joints, ts = self.solver, self.joints, inp.time
         self.solver_part = SolverPart(solver)
         # finite sliding: the joints that slide on a deformable face are paired anew
-        self.pairing = JointPairing(model, joints.slices, joints.names, iface.B,
+        self.pairing = JointPairing(model, joints.slices, joints.names, model.interface.B,
                                     inp.solver.pairing_tolerance, solver=solver)
         self.pairing.on_repair += [
             lambda s: self._operator_changed(),
@@ -243,15 +267,6 @@ class Analysis:
             self.snapshots, OutputsStep(self), self.progress_bar, self.heel_opening,
             self.stop_rule, CheckpointStep(checkpoints, self._checkpoint, solver))
             if p is not None]
-        if progress:
-            c = self.chars
-            log(f"[{inp.name}] nfree {model.nfree}, joints {', '.join(joints.names)} "
-                f"({iface.npts} interface points), f1 = {self.modal.frequencies_hz[0]:.3f} Hz, "
-                f"a0 = {self.damping['a0']:.4g} 1/s, a1 = {self.damping['a1']:.4g} s; t1 = "
-                f"{c['t1']:.3e} s, t2 = {c['t2']:.3e} s (Eq. 11); record: {gm.label}"
-                f"{' [SYNTHETIC]' if gm.synthetic else ''}")
-            if self.window_note:
-                log(f"[{inp.name}] note: {self.window_note}")
 
     @property
     def history(self):
