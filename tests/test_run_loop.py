@@ -416,3 +416,47 @@ def _base_law_at_start(sc):
     law = build_law(sc.interface)
     scal = build_scaling(sc.interface, law)
     return scal.update(law, 0.0) if scal is not None else law
+
+
+def test_every_part_of_a_run_keeps_the_protocol():
+    """Every class ``Analysis`` lists as a part implements ``run.parts.StepPart`` (a name,
+    before_step, after_step, checkpoint, restore) and the names are unique (a checkpoint's
+    namespaces); the split of a checkpoint puts arrays in the npz and the rest in the
+    manifest, and joins each part's dict back unchanged."""
+    from ngs_driver.run import parts as P
+    from ngs_driver.run.checkpoint import CheckpointStep, SolverPart
+    from ngs_driver.run.collapse import CollapseRule
+    from ngs_driver.run.energy import EnergyBudget, EnergyGuard
+    from ngs_driver.run.history import HeelOpening, Snapshots, StepHistory
+    from ngs_driver.run.joints import SizeScale
+    from ngs_driver.run.pairing import JointPairing
+    from ngs_driver.run.progress import OutputsStep, Progress
+    from ngs_driver.run.reservoir import ReservoirRun
+    from ngs_driver.run.safety import SlidingSafety
+    from ngs_driver.run.screening import Screening
+    from ngs_driver.run.uplift import Uplift
+    classes = [SolverPart, Uplift, Screening, ReservoirRun, Joints, SlidingSafety, EnergyBudget,
+               StepHistory, EnergyGuard, SizeScale, JointPairing, Snapshots, OutputsStep,
+               Progress, HeelOpening, CollapseRule, CheckpointStep]
+    for c in classes:
+        assert all(callable(getattr(c, m, None)) for m in
+                   ("before_step", "after_step", "checkpoint", "restore")), c
+    names = [c.name for c in classes]
+    assert len(set(names)) == len(names) and "run" not in names, names
+
+    class A(P.Part):
+        name = "a"
+
+        def checkpoint(self):
+            return {"x": np.arange(3.0), "n": 2, "d": {"t": None}}
+
+    class B(P.Part):
+        name = "b"
+
+    arrays, meta = P.split_checkpoint([A(), B()])
+    assert list(arrays) == ["a.x"] and meta == {"a": {"n": 2, "d": {"t": None}}, "b": {}}
+    back = P.join_checkpoint("a", arrays, meta)
+    assert np.array_equal(back["x"], np.arange(3.0))
+    assert back["n"] == 2 and back["d"] == {"t": None}
+    with pytest.raises(ValueError, match="two parts named 'a'"):
+        P.split_checkpoint([A(), A()])

@@ -402,11 +402,13 @@ class Analysis:
         f_k = seismic_load(self.f_static, self.Mrx, self.Mry, self.ax[k], self.ay[k])
         if self.absorbing is not None:
             f_k = f_k + self.absorbing.force(solver.time + solver.dt)
-        rep, f_used, en, scan = self._solve(k, tk, f_k)
-        self.k = k
-        ctx = StepContext(k=k, t=tk, dt=self.inputs.time.dt, solver=solver, report=rep,
-                          load=f_used, energy=en, scan=scan, static_loads=self._static_loads)
+        ctx = StepContext(k=k, t=tk, dt=self.inputs.time.dt, solver=solver, load=f_k,
+                          static_loads=self._static_loads, ground=(self.ax[k], self.ay[k]))
         for part in self.parts:                   # in their order (run.parts)
+            part.before_step(ctx)
+        ctx.report, ctx.load, ctx.energy, ctx.scan = self._solve(k, tk, ctx.load)
+        self.k = k
+        for part in self.parts:
             part.after_step(ctx)
         if ctx.stop is not None:
             coll = dict(ctx.stop)

@@ -40,6 +40,14 @@ def _water(solver):
     return ext if hasattr(ext, "state") and hasattr(ext, "restore") else None
 
 
+def _water_state(water) -> dict:
+    return water.state()
+
+
+def _restore_water(water, d) -> None:
+    water.restore(d)
+
+
 class SolverPart(Part):
     """The solver's committed state as a run part: u, v, a, f, time, the interface state, the
     internals a bitwise continuation needs (traction, gap, phi, the active set, the gap
@@ -66,7 +74,7 @@ class SolverPart(Part):
         water = _water(s)
         if water is not None:
             d.update({f"water.{k}": None if v is None else np.array(v, copy=True)
-                      for k, v in water.state().items()})
+                      for k, v in _water_state(water).items()})
         return d
 
     def restore(self, d: dict) -> None:
@@ -81,7 +89,7 @@ class SolverPart(Part):
                                             if k.startswith("state.")})
         water = {k[6:]: v for k, v in d.items() if k.startswith("water.")}
         if water:
-            _water(s).restore(water)
+            _restore_water(_water(s), water)
 
 
 def scene_difference(have, want, path="") -> str | None:

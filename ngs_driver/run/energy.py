@@ -52,6 +52,7 @@ import numpy as np
 from numba import njit
 
 from ..solve.products import FusedPair, pair_products
+from .parts import Part
 
 __all__ = ["EnergyBudget", "EnergyGuard", "stored_energy", "ENERGY_KEYS", "GUARD_FRACTION",
            "GUARD_FLOOR", "GUARD_SPLITS"]
@@ -137,7 +138,7 @@ def _km_vectors(u, v, f, u0, v0, f0, Ku0, Mv0, Ku, Mv, du, fs, ms, vs, kd):
         f0[i] = f[i]
 
 
-class EnergyBudget:
+class EnergyBudget(Part):
     """Accumulates the budget; ``start`` at the static state, ``step`` after each step.
 
     rayleigh = (a0, a1) says that C = a0 M + a1 K + C_extra (C_extra: None or a sparse
@@ -337,7 +338,7 @@ class EnergyBudget:
         self._prods = (Mv, Ku)
 
 
-class EnergyGuard:
+class EnergyGuard(Part):
     """No verdict from a step that breaks the energy balance (docs/run.md §9.1).
 
     From two consecutive rows of the budget (``EnergyBudget.step``), the step's
@@ -417,9 +418,6 @@ class EnergyGuard:
 
     # a run part (run.parts): it judges the step inside the solve (``check``)
     name = "guard"
-
-    def after_step(self, ctx):
-        pass
 
     def checkpoint(self) -> dict:
         """What a checkpoint keeps (JSON): the last accepted step's terms, the energy scale,
