@@ -355,7 +355,7 @@ class EnergyGuard(Part):
     dissipation (generalized alpha, HHT) only increases it. The water's share of the scheme's
     exchange, E_water_alg (either sign, fixed by the scheme's algebra), is booked apart and
     not in it; a water stepped otherwise (pine_flat's, stepped twice by the uplift's fixed
-    point until solver_snapshot held it, docs/run.md §9.1) still shows. A step is
+    point until the solver's saved state held it, docs/run.md §9.1) still shows. A step is
     rejected when
 
         jump > GUARD_FRACTION * work + GUARD_FLOOR * scale,
@@ -364,7 +364,7 @@ class EnergyGuard(Part):
     |W_water| so far). The run then repeats it from the committed state in 2, 4, ... uniform
     sub-steps (``NewmarkSolver.step(split=k)``) and stops with an error after GUARD_SPLITS
     halvings: such a step is never accepted. The cost: a few scalar differences per step
-    (the budget is formed anyway), and a copy of the committed state (``solver_snapshot``).
+    (the budget is formed anyway), and a copy of the committed state (``run.checkpoint.SolverPart``).
     """
 
     def __init__(self, e_static: float = 0.0, fraction: float = GUARD_FRACTION,
