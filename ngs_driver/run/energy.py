@@ -364,7 +364,8 @@ class EnergyGuard(Part):
     |W_water| so far). The run then repeats it from the committed state in 2, 4, ... uniform
     sub-steps (``NewmarkSolver.step(split=k)``) and stops with an error after GUARD_SPLITS
     halvings: such a step is never accepted. The cost: a few scalar differences per step
-    (the budget is formed anyway), and a copy of the committed state (``run.checkpoint.SolverPart``).
+    (the budget is formed anyway), and a copy of the committed state
+    (``run.checkpoint.SolverPart``).
     """
 
     def __init__(self, e_static: float = 0.0, fraction: float = GUARD_FRACTION,
