@@ -432,9 +432,11 @@ class Analysis:
         the load used, the energy row, the joints' scan)."""
         solver, name = self.solver, self.inputs.name
         # what a step changes, to repeat it: the solver's committed state with its coupled
-        # water's, the uplift in force and the energy budget's accumulators
-        repeat = (self.solver_part, self.uplift, self.energy)
+        # water's and the energy budget's accumulators (their checkpoints), and the uplift
+        # pressure in force (its fixed-point counts keep the rejected attempts' solves)
+        repeat = (self.solver_part, self.energy)
         saved = [p.checkpoint() for p in repeat]
+        p_uplift = self.uplift.p
         split, cuts, failed = 0, 0, 0
         while True:
             try:
@@ -460,6 +462,7 @@ class Analysis:
                                   f"t = {self.times[k - 1]:.6g} s")
             for p, d in zip(repeat, saved):
                 p.restore(d)
+            self.uplift.p = p_uplift
         rep.cuts += cuts
         rep.iterations_failed += failed
         return rep, f_used, en, scan
