@@ -55,6 +55,7 @@ COLLAPSE_MODES = ("toppling", "sliding off", "friction unable to hold the static
 
 
 class CollapseRule:
+    kinematics = "small"          # solver.kinematics: names the range left by a rotation
     def __init__(self, model, joints, max_slip: float, max_rotation: float,
                  kinematics: str = "small"):
         from ..fe.pairing import upper_columns
