@@ -12,8 +12,7 @@ A run goes to the end of its record unless a joint collapses:
   bonded ligament left is not collapsing yet: the ligament either holds or debonds, and then
   the rule applies);
 * **sliding off**: the mean slip of a lift joint reaches the joint's length: the block above
-  has left the block below (run/sliding opens every point that has no face below it).
-
+  has left the block below (run/sliding opens every point that has no face below it);
 * **toppling** (``solver.kinematics = "finite_rotation"`` only, run/rotation.py): the
   exact moment of the static loads about the joint's pivot no longer restores the block above
   it (its weight's resultant passed the end of the joint). With the small-rotation kinematics
