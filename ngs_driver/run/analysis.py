@@ -57,6 +57,7 @@ from .outputs import Outputs
 from .post_earthquake import PostEarthquakeCheck
 from .safety import FS_DEFINITION, SlidingSafety
 from .statics import solve_pre_earthquake
+from .rotation import FiniteRotation
 from .sliding import JointPairing
 from .stopping import CollapseRule
 from .uplift import Uplift
@@ -203,7 +204,11 @@ class Analysis:
         # the wall time stays the last column (everything before it is deterministic)
         self.history_keys = (list(HIST_KEYS[:-1]) + joints.history_keys()
                              + self.safety.history_keys() + self.energy.keys() + ["wall"])
-        self.stop_rule = CollapseRule(model, joints, ts.max_slip, ts.max_rotation)
+        self.stop_rule = CollapseRule(model, joints, ts.max_slip, ts.max_rotation,
+                                      scene.solver.kinematics)
+        # finite rotations of the blocks (run/rotation.py; off: the small-rotation kinematics)
+        self.rotation = (FiniteRotation(model, joints, solver, self.Mrx, self.Mry)
+                         if scene.solver.kinematics == "finite_rotation" else None)
         self.collapse = None
         self.undetermined = None             # the stop entry when the model's range was left
         self.window_note = window_note(scene, gm)
@@ -330,6 +335,8 @@ class Analysis:
                              else None)
         if self.pairing.repairs and self.uplift.active:
             self._operator_changed()
+        if self.rotation is not None:
+            self.rotation.restore(arrs, solver)
         self.k = self.resumed_from = int(meta["step"])
         self._wall_before = float(meta["dynamic_wall"])
         if self.progress:
@@ -381,6 +388,10 @@ class Analysis:
         f_k = seismic_load(self.f_static, self.Mrx, self.Mry, self.ax[k], self.ay[k])
         if self.absorbing is not None:
             f_k = f_k + self.absorbing.force(solver.time + solver.dt)
+        if self.rotation is not None:        # the step's gap offset and P-Delta load
+            f_k = f_k + self.rotation.before_step(solver, scene.time.dt, self.ax[k],
+                                                  self.ay[k])
+            self.energy.rebase_gap(solver.operator_gap())   # the offset books no work
         snap = self._snapshot()
         split, cuts, failed = 0, 0, 0
         while True:
@@ -439,7 +450,11 @@ class Analysis:
         base = joints.slices[0]
         if jm["base_n_debonded"] < base.stop - base.start and solver.g[0, 0] > self.heel["open"]:
             self.heel = {"u": solver.u.copy(), "t": float(tk), "open": float(solver.g[0, 0])}
-        coll = self.stop_rule.check(k, tk, scene.time.dt, jm, self._static_loads, joints, scan)
+        coll = None if self.rotation is None else self.rotation.after_step(
+            solver, k, tk, self._static_loads)
+        if coll is None:
+            coll = self.stop_rule.check(k, tk, scene.time.dt, jm, self._static_loads, joints,
+                                        scan)
         if coll is not None:
             verdict = coll.pop("verdict")
             if verdict == "collapse":
@@ -506,7 +521,8 @@ class Analysis:
         arrays = {**solver_arrays(solver), "u_static": self.u_static, "heel_u": self.heel["u"],
                   "f_reaction": self.f_reaction, **self.energy.state(),
                   **self.uplift.checkpoint_arrays(), **self.stop_rule.state(),
-                  **self.pairing.state(), "joints_static_motion": self.joints.static_motion}
+                  **self.pairing.state(), "joints_static_motion": self.joints.static_motion,
+                  **({} if self.rotation is None else self.rotation.checkpoint())}
         if self.screening is not None:
             arrays.update(self.screening.checkpoint_arrays())
         if self.reservoir is not None:             # the water state, in the same set

@@ -12,14 +12,18 @@ A run goes to the end of its record unless a joint collapses:
   bonded ligament left is not collapsing yet: the ligament either holds or debonds, and then
   the rule applies);
 * **sliding off**: the mean slip of a lift joint reaches the joint's length: the block above
-  has left the block below (run/sliding opens every point that has no face below it).
+  has left the block below (run/sliding opens every point that has no face below it);
+* **toppling** (``solver.kinematics = "finite_rotation"`` only, run/rotation.py): the
+  exact moment of the static loads about the joint's pivot no longer restores the block above
+  it (its weight's resultant passed the end of the joint). With the small-rotation kinematics
+  a toppling block (rotations near atan(b/h), 0.49 rad for koyna_1967's top block) leaves the
+  range below first.
 
-Toppling (the block's resultant outside the joint) needs rotations near atan(b/h) (0.49 rad for
-koyna_1967's top block); the small-rotation kinematics end well before (docs/solver.md §11),
-so in this model it cannot be reached: a run that gets there stops first at the range below.
+Each collapse entry names its ``mode`` (``COLLAPSE_MODES``).
 
 Leaving the model's range is not a collapse: |rotation of the block above a joint|
-> ``time.max_rotation`` (the small-rotation kinematics, at most ``MAX_ROTATION_SUPPORTED``)
+> ``time.max_rotation`` (at most ``MAX_ROTATION_SUPPORTED`` with the small-rotation kinematics,
+``MAX_ROTATION_FINITE`` with the finite-rotation ones)
 or |slip| > ``time.max_slip`` (the user's bound of small-displacement sliding) stops the run
 with the verdict **undetermined**, naming the range.
 
@@ -30,23 +34,32 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["CollapseRule", "SLIDING_RATE", "MAX_ROTATION_SUPPORTED", "VERDICTS"]
+from ..scene import MAX_ROTATION_FINITE, MAX_ROTATION_SUPPORTED
+
+__all__ = ["CollapseRule", "SLIDING_RATE", "MAX_ROTATION_SUPPORTED", "MAX_ROTATION_FINITE",
+           "VERDICTS", "COLLAPSE_MODES"]
 
 SLIDING_RATE = 1e-3     # m/s: a joint whose mean slip changes faster than this is sliding
 # the largest time.max_rotation the small-rotation kinematics support (scene.py checks it):
 # a rigid rotation theta of the linearised kinematics stretches the block by theta^2 / 2,
 # 5e-3 at 0.1 rad (~150 MPa of spurious stress at E = 31 GPa, 50 x concrete's tensile
-# strength); docs/solver.md §11
-MAX_ROTATION_SUPPORTED = 0.1
+# strength); docs/solver.md §11. MAX_ROTATION_FINITE: the finite-rotation kinematics' bound
 # summary.json "verdict": the record's end reached, a physical collapse, or the model's range
 # left (kinematic limits): nothing can be said about the dam past it
 VERDICTS = ("no_collapse", "collapse", "undetermined")
+# a collapse entry's "mode": the block above the joint toppled (run/rotation.py, the
+# finite-rotation kinematics), slid off the face below, or slides with friction unable to
+# hold the static loads of its cracked state
+COLLAPSE_MODES = ("toppling", "sliding off", "friction unable to hold the static loads")
 
 
 class CollapseRule:
-    def __init__(self, model, joints, max_slip: float, max_rotation: float):
+    kinematics = "small"          # solver.kinematics: names the range left by a rotation
+    def __init__(self, model, joints, max_slip: float, max_rotation: float,
+                 kinematics: str = "small"):
         from ..fe.pairing import upper_columns
 
+        self.kinematics = kinematics
         self.names = list(joints.names)
         self.max_slip, self.max_rotation = float(max_slip), float(max_rotation)
         blocks = [r for r in model.regions if r != "rock"]
@@ -85,20 +98,22 @@ class CollapseRule:
         slip = np.array([measures[f"{n}_slip"] for n in self.names])
         rot = np.array([measures[f"{n}_rotation"] for n in self.names])
         prev, self._prev = self._prev, slip
+        kin = "small-rotation" if self.kinematics == "small" else "finite-rotation"
         for i, n in enumerate(self.names):
             if i > 0 and abs(slip[i]) >= self.lengths[i]:
                 return {"joint": n, "time": float(t), "step": int(k), "verdict": "collapse",
+                        "mode": "sliding off",
                         "reason": f"the block above joint {n!r} slid off: its slip "
                                   f"{slip[i]:.4g} m reached the joint's length "
                                   f"{self.lengths[i]:.4g} m (sliding off)",
                         "measure": "slip", "value": float(slip[i])}
             if abs(rot[i]) > self.max_rotation:
                 return {"joint": n, "time": float(t), "step": int(k), "verdict": "undetermined",
-                        "range": f"small-rotation kinematics: |rotation| <= time.max_rotation "
+                        "range": f"{kin} kinematics: |rotation| <= time.max_rotation "
                                  f"= {self.max_rotation:g} rad (docs/solver.md §11)",
                         "reason": f"the rotation of the block above joint {n!r}, "
                                   f"{rot[i]:.4g} rad, left the model's range (time.max_rotation "
-                                  f"= {self.max_rotation:g} rad, the small-rotation kinematics): "
+                                  f"= {self.max_rotation:g} rad, the {kin} kinematics): "
                                   f"the verdict past it is undetermined, not a collapse",
                         "measure": "rotation", "value": float(rot[i])}
             if abs(slip[i]) > self.max_slip:
@@ -122,6 +137,7 @@ class CollapseRule:
         for i, n in enumerate(self.names):
             if sliding[i] and cracked[i] and fs[i] < 1.0:
                 return {"joint": n, "time": float(t), "step": int(k), "verdict": "collapse",
+                        "mode": "friction unable to hold the static loads",
                         "reason": f"joint {n!r} is cracked over its length and slides "
                                   f"({rate[i]:+.3g} m/s), and friction alone cannot hold the "
                                   f"static loads of its cracked state: FS_static = "

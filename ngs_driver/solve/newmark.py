@@ -433,6 +433,13 @@ class NewmarkSolver:
         self._cache.clear()
         self._static_cache = None
 
+    def set_offset(self, g_offset):
+        """Replace the gap's offset with B kept (no refactorisation): g = B u + g_offset. The
+        finite-rotation kinematics (run/rotation) add the exact rigid rotation's part of the
+        gap that B u linearises, once per step."""
+        self.g_offset = np.asarray(g_offset, dtype=np.float64).copy()
+        self._set_offset_force()
+
     def _set_offset_force(self):
         """f_off = B^T W K0 g_offset: the part of the interface's elastic force K0 g that the
         factorised matrix (which holds B^T W K0 B, acting on B u only) does not produce once the
