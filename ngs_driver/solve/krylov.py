@@ -1,4 +1,5 @@
-"""The r x r interface Newton system of the condensed solver (``NewmarkSolver._jac_solve``):
+"""The r x r interface Newton system of the condensed solver (solve/condensed.py
+``CondensedNewton.jacobian_solve``):
 
     H z = v,     H = Y^-1 + P     (Y^-1 dense symmetric, P sparse CSR; r = 224 on Koyna)
 

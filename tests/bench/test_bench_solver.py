@@ -11,7 +11,7 @@ import pytest
 
 from interfacelaw import (CohesiveParams, ContactParams, DamageParams, FrictionParams,
                           InterfaceLaw)
-from ngs_driver.solve.newmark import NewmarkSolver
+from ngs_driver.solve.joint_solver import JointSolver
 from toymodel import block_on_block
 
 DT = 2e-3
@@ -40,7 +40,7 @@ def _load(m, n):
 
 
 def _solver(m, method, warm):
-    s = NewmarkSolver(m.K, m.M, 1e-4 * m.K, m.B, m.w, _law(), dt=DT, method=method)
+    s = JointSolver(m.K, m.M, 1e-4 * m.K, m.B, m.w, _law(), dt=DT, method=method)
     s.static(m.gravity)
     for n in range(1, warm + 1):                # factorisation, S columns, damage everywhere
         s.step(_load(m, n))
