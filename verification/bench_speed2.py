@@ -183,7 +183,7 @@ BREAKDOWN = (
     ("ngs_driver.solve.fluid:FluidStepper", "rhs", "— the water's rows (`FluidStepper.rhs`)"),
     ("ngs_driver.solve.fluid:FluidStepper", "commit", "— the water's state (`FluidStepper.commit`)"),
     ("interfacelaw.law:InterfaceLaw", "evaluate", "— the interface law"),
-    ("ngs_driver.solve.newmark:JointSolver", "step_products", "the step's products (K u, M v for the energy; M x, C y, C v for the next right-hand side)"),
+    ("ngs_driver.solve.joint_solver:JointSolver", "step_products", "the step's products (K u, M v for the energy; M x, C y, C v for the next right-hand side)"),
     ("ngs_driver.run.energy:EnergyBudget", "step", "bookkeeping: energy budget"),
     ("ngs_driver.run.reservoir:ReservoirRun", "sample", "bookkeeping: reservoir stations"),
     ("ngs_driver.run.joints:Joints", "scan", "bookkeeping: joint scan"),

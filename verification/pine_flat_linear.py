@@ -2,7 +2,7 @@
 (issue 31, item 1): the crest's horizontal displacement history (relative to the ground).
 
 * ours: the project's FE model (NGSolve assembly, `fe.model.build_model`, base clamped) and the
-  project's time stepper (`solve.newmark.JointSolver`, average acceleration), Rayleigh
+  project's time stepper (`solve.joint_solver.JointSolver`, average acceleration), Rayleigh
   C = a0 M + a1 K with 5 % at modes 1 and 3 from the project's modal analysis;
 * theirs: scikit-fem assembling its own K and M (its own linear-elasticity form and Lame map)
   on the same triangles, its own eigen-solution for the Rayleigh coefficients (the same

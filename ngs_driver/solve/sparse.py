@@ -51,19 +51,26 @@ def _gather_rows(perm, y, x):
             x[i, r] = y[pc, r]
 
 
+@njit(cache=True, inline="always")
+def _eliminate(Lp, Li, Lx, y, j):
+    """Column j of the forward substitution L^-1 y (y (n, k), in place): y[j] /= L_jj, then
+    y[i] -= L_ij y[j] below the diagonal (L CSC, diagonal first in each column)."""
+    k = y.shape[1]
+    d = Lx[Lp[j]]
+    for r in range(k):
+        y[j, r] /= d
+    for q in range(Lp[j] + 1, Lp[j + 1]):
+        i = Li[q]
+        lv = Lx[q]
+        for r in range(k):
+            y[i, r] -= lv * y[j, r]
+
+
 @njit(cache=True)
 def _fwd_mat(Lp, Li, Lx, y):
     """y <- L^-1 y in place (y (n, k)); L CSC, diagonal first in each column."""
-    n, k = y.shape
-    for j in range(n):
-        d = Lx[Lp[j]]
-        for r in range(k):
-            y[j, r] /= d
-        for q in range(Lp[j] + 1, Lp[j + 1]):
-            i = Li[q]
-            lv = Lx[q]
-            for r in range(k):
-                y[i, r] -= lv * y[j, r]
+    for j in range(y.shape[0]):
+        _eliminate(Lp, Li, Lx, y, j)
 
 
 @njit(cache=True)
@@ -162,15 +169,7 @@ def _fwd_part(Lp, Li, Lx, cols, rows_in, b, y):
         for r in range(k):
             y[rows_in[a], r] += b[a, r]
     for a in range(cols.shape[0]):
-        j = cols[a]
-        d = Lx[Lp[j]]
-        for r in range(k):
-            y[j, r] /= d
-        for q in range(Lp[j] + 1, Lp[j + 1]):
-            i = Li[q]
-            lv = Lx[q]
-            for r in range(k):
-                y[i, r] -= lv * y[j, r]
+        _eliminate(Lp, Li, Lx, y, cols[a])
 
 
 @njit(cache=True)

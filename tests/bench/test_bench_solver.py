@@ -1,4 +1,4 @@
-"""Benchmarks of ngs_driver.solve.newmark: time per implicit step with the nonlinear
+"""Benchmarks of ngs_driver.solve.joint_solver: time per implicit step with the nonlinear
 interface, condensed vs full Newton, at three mesh sizes of the block-on-block toy model
 (ngs_driver/solver_toymodel.py; ~0.9k, 3.3k, 12.5k DOFs) and at 128 vs 512 interface points.
 
