@@ -271,7 +271,7 @@ class SparseFactor:
     effective matrices of the condensed method are SPD): then perm_r = perm_c = P and
     U = D L^T to round-off, so U is not kept (P A P^T = L D L^T): the backward half takes dot
     products down the columns of L, last column first, read from a reversed copy of L so that
-    both halves stream memory upwards (``_reversed``; issue #15, measured in BENCHMARKS.md).
+    both halves stream memory upwards (``_reversed``; measured in BENCHMARKS.md).
     If SuperLU pivoted anyway, or U is not D L^T to 1e-10, the general LU is kept.
     symmetric=False: partial pivoting, L and U.
     ``solve(b)`` accepts (n,) or (n, k).  ``fast=False`` uses SuperLU's own solve.
@@ -339,7 +339,7 @@ class SparseFactor:
             _lu_solve(*self._L, *self._U, self._pr, self._pc, b2, x, y)
         return x
 
-    # ---- split and partial solves (condensed interface solver, issue #15) ---------------
+    # ---- split and partial solves (the condensed interface Newton) -----------------------
     # A^-1 = Pc U^-1 L^-1 Pr.  Right-hand sides supported on a few DOFs ("interface") reach
     # only the closure of their rows under the structure of L; a solution wanted at those DOFs
     # only needs the closure of their positions under the structure of U (the etree ancestors).
