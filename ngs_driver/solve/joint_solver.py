@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import contextlib
 from collections import OrderedDict
+from operator import attrgetter
 
 import numpy as np
 import scipy.sparse as sp
@@ -44,12 +45,10 @@ __all__ = ["JointSolver", "StepReport", "SolverError", "Attempt", "STATIC_DURATI
 
 
 def _committed_field(name, doc):
-    def get(self):
-        return getattr(self.committed, name)
-
+    """A committed field read and set through the solver (the getter in C: read every step)."""
     def set_(self, value):
         setattr(self.committed, name, value)
-    return property(get, set_, doc=doc)
+    return property(attrgetter(f"committed.{name}"), set_, doc=doc)
 
 
 def _delegated(part, name, kind):
@@ -182,17 +181,11 @@ class JointSolver:
         return self.committed.phi
 
     # the joints' operator, read by run/ and the studies
-    @property
-    def B(self):
-        return self.joints.B
+    B = property(attrgetter("joints.B"))
 
-    @property
-    def BT(self):
-        return self.joints.BT
+    BT = property(attrgetter("joints.BT"))
 
-    @property
-    def w(self):
-        return self.joints.w
+    w = property(attrgetter("joints.w"))
 
     @property
     def k0(self):
