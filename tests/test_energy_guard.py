@@ -36,7 +36,7 @@ def offset_run(model, method, nsteps=20, dt=2e-3):
     crest load. Returns (solver, displacements)."""
     m = model
     s = JointSolver(m.K, m.M, None, m.B, m.w, cracked_law(), dt=dt, method=method,
-                      tol_residual=1e-11)
+                    tol_residual=1e-11)
     s.static(m.gravity)
     off = np.zeros(2 * m.npts)
     off[0::2] = -1e-5

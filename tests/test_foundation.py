@@ -58,7 +58,7 @@ def test_massless_initial_acceleration(massless):
     sc, ml = massless
     joints = Joints(sc, ml.interface)
     s = JointSolver(ml.K, ml.M, None, ml.interface.B, ml.interface.w, joints.solver_law(),
-                      dt=0.002, tol_residual=1e-12)
+                    dt=0.002, tol_residual=1e-12)
     s.static(ml.f_gravity + ml.f_water)
     z = massless_dofs(ml.M)
     f = ml.f_gravity + ml.f_water - ml.M @ ml.r_x * 1.0

@@ -89,7 +89,7 @@ def _precracked(model, scene, a_target):
     a = float(nodes[np.argmin(np.abs(nodes - a_target))])
     joints = Joints(scene, it)
     s = JointSolver(model.K, model.M, None, it.B, it.w, joints.solver_law(), dt=0.002,
-                      tol_residual=1e-11, max_iter=60)
+                    tol_residual=1e-11, max_iter=60)
     st = s.state.copy()
     st.kappa[it.x < a] = 1.0
     s.state = st
@@ -146,7 +146,7 @@ def test_crack_dependent_uplift_is_a_fixed_point_of_each_step(rigid_model, in_cr
     it = rigid_model.interface
     joints = Joints(sc, it)
     s = JointSolver(rigid_model.K, rigid_model.M, None, it.B, it.w, joints.solver_law(),
-                      dt=0.002, tol_residual=1e-10, max_iter=60)
+                    dt=0.002, tol_residual=1e-10, max_iter=60)
     st = s.state.copy()
     st.kappa[it.x < 10.0] = 1.0
     s.state = st
@@ -171,7 +171,7 @@ def test_post_earthquake_without_equilibrium_reports_the_resultants(rigid_model)
     it = rigid_model.interface
     joints = Joints(sc, it)
     s = JointSolver(rigid_model.K, rigid_model.M, None, it.B, it.w, joints.solver_law(),
-                      dt=0.002, max_iter=10)
+                    dt=0.002, max_iter=10)
     st = s.state.copy()
     st.kappa[:] = 1.0
     s.state = st

@@ -82,7 +82,7 @@ def test_set_law_size_scale_update(model):
     out = []
     for method in ("condensed", "full"):
         s = JointSolver(model.K, model.M, None, model.B, model.w, law, dt=2e-3,
-                          method=method, tol_residual=1e-11)
+                        method=method, tol_residual=1e-11)
         s.static(model.gravity)
         for n in range(1, 31):
             if n == 10:
@@ -236,7 +236,7 @@ def test_relative_dof_jacobian_matches_full(model, paired):
     import scipy.sparse as sp
     law = weak_law()
     s = JointSolver(model.K, model.M, None, model.B, model.w, law, dt=2e-3,
-                      tol_residual=1e-11)
+                    tol_residual=1e-11)
     J0 = s.joints                                  # solve/interface.py JointOperator
     nI = J0.dofs.size
     assert J0.Dt.shape == (nI, nI // 2)
@@ -263,7 +263,7 @@ def test_jacobian_reuse_same_history(model):
     runs = {}
     for reuse in (True, False):
         s = JointSolver(model.K, model.M, None, model.B, model.w, law, dt=2e-3,
-                          tol_residual=1e-11, jacobian_reuse=reuse, few_max=0)
+                        tol_residual=1e-11, jacobian_reuse=reuse, few_max=0)
         s.static(model.gravity)
         U = []
         for n in range(1, 31):
@@ -332,7 +332,7 @@ def test_forget_jacobian_makes_a_restart_bitwise(model):
 
     def make():
         return JointSolver(model.K, model.M, None, model.B, model.w, law, dt=2e-3,
-                             tol_residual=1e-11, few_max=0)
+                           tol_residual=1e-11, few_max=0)
     a = make()
     a.static(model.gravity)
     for n in range(1, 16):
@@ -448,7 +448,7 @@ def test_alpha_rhs_fused_equals_numpy(model):
     rng = np.random.default_rng(7)
     C = (0.3 * m.M + 1e-3 * m.K).tocsr()
     s = JointSolver(m.K, m.M, C, m.B, m.w, weak_law(), dt=2e-3,
-                      integrator=Integrator.make("generalized-alpha", rho_inf=0.6))
+                    integrator=Integrator.make("generalized-alpha", rho_inf=0.6))
     n = m.K.shape[0]
     s.set_initial(u=1e-4 * rng.standard_normal(n), v=rng.standard_normal(n) * 1e-2,
                   a=rng.standard_normal(n), f=rng.standard_normal(n))

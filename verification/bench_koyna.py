@@ -159,9 +159,9 @@ def variant(s, method="condensed"):
     on scenes with ``damping.model`` rayleigh or stiffness)."""
     from ngs_driver.solve.joint_solver import JointSolver
     v = JointSolver(s.K, s.M, s.C, s.B, s.w, s.law, dt=s.dt, method=method,
-                      integrator=s.integrator,
-                      C_lowrank=s.C_lowrank if method == "condensed" else None,
-                      tol_residual=s.tol_residual, max_iter=s.max_iter, min_dt=s.min_dt)
+                    integrator=s.integrator,
+                    C_lowrank=s.C_lowrank if method == "condensed" else None,
+                    tol_residual=s.tol_residual, max_iter=s.max_iter, min_dt=s.min_dt)
     v.state = s.state
     v.set_initial(u=s.u.copy(), v=s.v.copy(), a=s.a.copy(), f=s.f.copy())
     v.time = s.time

@@ -13,7 +13,7 @@ def spring_supported(main, K_support):
     dashpots of absorbing boundaries have no stiffness); it shares main's interface state."""
     from ..solve.joint_solver import JointSolver
     s = JointSolver(main.K + K_support, main.M, None, main.B, main.w, main.law, dt=main.dt,
-                      tol_residual=main.tol_residual, max_iter=main.max_iter)
+                    tol_residual=main.tol_residual, max_iter=main.max_iter)
     s.state = main.state
     return s
 
