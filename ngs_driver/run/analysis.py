@@ -10,7 +10,7 @@
 ``prepare`` validates the scene (``setup.validate``: laws, record) before anything is
 written, builds the model (``fe.model.build_from_scene``: the section, its lift joints, the
 foundation), one interface law per joint with its size-scale state (``run.joints``), Rayleigh
-damping from the modal analysis (``run.damping``) and the condensed ``NewmarkSolver`` (all
+damping from the modal analysis (``run.damping``) and the condensed ``JointSolver`` (all
 joints in one gap vector). The static state (dead load + reservoir + tailwater + uplift) is
 solved with the interface laws and committed; then the ground motion enters as the effective
 load
@@ -45,8 +45,8 @@ from .store import atomic_savez, atomic_write_json, environment_info
 from ..setup import FORMULATION, characteristic_times, law_parts, validate, window_note
 from ..solve.joint_laws import initial_stiffness, law_stiffness
 from . import summary as sm
-from .checkpoint import (Checkpointer, interface_state, restore_solver, restore_solver_arrays,
-                         resume_difference, solver_arrays, solver_snapshot)
+from .checkpoint import (Checkpointer, interface_state, restore_solver_arrays,
+                         resume_difference, solver_arrays)
 from .damping import damping_matrix, low_rank_damping, modes_to_compute, rayleigh_damping
 from .energy import GUARD_SPLITS, EnergyBudget, EnergyGuard
 from .folder import (FolderError, FolderLock, clean_temporaries, finished_files, probe_writable,
@@ -74,18 +74,19 @@ def seismic_load(f_static, Mrx, Mry, ax, ay):
     return f
 
 
-def make_solver(scene, model, C, law, C_lowrank=None):
-    """The condensed solver of the scene's [time] (integrator) and [solver] keys; C_lowrank:
-    the low-rank part of the damping (``run.damping.low_rank_damping``)."""
+def make_solver(scene, model, C, law, C_lowrank=None, coupled=None):
+    """The joint solver of the scene's [time] (integrator) and [solver] keys; C_lowrank:
+    the low-rank part of the damping (``run.damping.low_rank_damping``); coupled: the
+    reservoir's water (solve/coupled.py) or None."""
     from ..solve.integrator import Integrator
-    from ..solve.newmark import NewmarkSolver
+    from ..solve.joint_solver import JointSolver
     ts, sv = scene.time, scene.solver
     integrator = Integrator.make(ts.integrator, rho_inf=ts.rho_inf, beta=ts.newmark_beta,
                                  gamma=ts.newmark_gamma)
-    return NewmarkSolver(model.K, model.M, C, model.interface.B, model.interface.w, law,
-                         dt=ts.dt, integrator=integrator, C_lowrank=C_lowrank,
-                         tol_residual=sv.tol_residual, max_iter=sv.max_iter,
-                         stall_iterations=sv.stall_iterations, min_dt=sv.min_dt)
+    return JointSolver(model.K, model.M, C, model.interface.B, model.interface.w, law,
+                       dt=ts.dt, integrator=integrator, C_lowrank=C_lowrank,
+                       tol_residual=sv.tol_residual, max_iter=sv.max_iter,
+                       stall_iterations=sv.stall_iterations, min_dt=sv.min_dt, coupled=coupled)
 
 
 def _restart(scene, out, ckp, scene_d):
@@ -162,13 +163,6 @@ class Analysis:
         self.timings["modal"] = time.perf_counter() - t
         C = damping_matrix(model, self.damping, self.absorbing)
         self.low_damping = low_rank_damping(model, joints, self.damping)
-        self.solver = solver = make_solver(scene, model, C, joints.solver_law(),
-                                           self.low_damping)
-        cracked = joints.cracked_points()
-        if cracked.any():                # joints that start cracked: no cohesion
-            st0 = solver.state.copy()
-            st0.kappa[cracked] = 1.0
-            solver.set_state(st0)
         # finite sliding: the joints that slide on a deformable face are paired anew
         self.pairing = JointPairing(model, joints.slices, joints.names, model.interface.B,
                                     scene.solver.pairing_tolerance)
@@ -183,8 +177,19 @@ class Analysis:
         if getattr(model, "reservoir", None) is not None:   # hydrodynamics (fe/reservoir.py)
             from .reservoir import ReservoirRun
             Mrx, Mry = model.reservoir.seismic_vectors(Mrx, Mry)
-            self.reservoir = ReservoirRun.create(model, scene, solver, self.times, self.ax,
-                                                 self.ay, restart, out)
+            self.reservoir = ReservoirRun.create(model, scene, self.times, self.ax, self.ay,
+                                                 restart, out)
+        # the solver, with the reservoir's water as its coupled field (solve/coupled.py)
+        self.solver = solver = make_solver(
+            scene, model, C, joints.solver_law(), self.low_damping,
+            coupled=None if self.reservoir is None else self.reservoir.field)
+        if self.reservoir is not None:
+            self.reservoir.solver = solver
+        cracked = joints.cracked_points()
+        if cracked.any():                # joints that start cracked: no cohesion
+            st0 = solver.state.copy()
+            st0.kappa[cracked] = 1.0
+            solver.set_state(st0)
         self.f_base = model.f_gravity + model.f_water + (np.zeros(model.nfree) if f_tail is None
                                                          else f_tail)
         if self.absorbing is not None:       # total displacements: the record enters as
@@ -374,7 +379,7 @@ class Analysis:
         """One step of the record: solve, measure, record, checkpoint when due. Returns False
         when the run is over (this was the last step, or the stop rule fired at it; also when
         called with no step left), True when ``step()`` may be called again."""
-        from ..solve.newmark import SolverError
+        from ..solve.stepping import SolverError
 
         if self.history is None:
             raise RuntimeError("Analysis.step: call static() first")
@@ -477,13 +482,13 @@ class Analysis:
 
     def _snapshot(self):
         """What a step changes, to repeat it (the energy guard): the solver's committed state
-        with its coupled water's (``solver_snapshot``), the uplift in force and the energy
-        budget's accumulators."""
-        return (solver_snapshot(self.solver), self.uplift.field.p, self.energy.state())
+        with its coupled water's (``JointSolver.checkpoint``), the uplift in force and the
+        energy budget's accumulators."""
+        return (self.solver.checkpoint(), self.uplift.field.p, self.energy.state())
 
     def _restore(self, snap):
         sv, p, budget = snap
-        restore_solver(self.solver, sv)
+        self.solver.restore(sv)
         self.uplift.field.p = p
         self.energy.restore(budget)
 

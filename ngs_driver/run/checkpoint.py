@@ -1,6 +1,6 @@
 """Checkpoints of a run: arrays + manifest written atomically, the manifest last (the commit
 point), the previous checkpoint kept until the next one is committed;
-and the copy of a solver's committed state that a checkpoint or a repeated solve needs."""
+and the layout of the solver's committed state in the checkpoint file."""
 from __future__ import annotations
 
 import hashlib
@@ -16,37 +16,16 @@ import numpy as np
 from .store import atomic_write_bytes, atomic_write_text, json_text, npz_bytes
 
 
-def solver_snapshot(solver) -> dict:
-    """A copy of everything the solver has committed: u, v, a, f, time, the interface state,
-    the internals of ``checkpoint_state`` and the state of its coupled water (``solver.ext``,
-    compressible acoustic water: p, p', p'' and its energy accumulators), so that a solve can
-    be repeated from it bit for bit. Without the water's, a repeated step (the uplift's fixed
-    point) stepped the water twice: pine_flat's energy guard stopped the run at 2.97 s."""
-    ext = getattr(solver, "ext", None)
-    ext = ext if hasattr(ext, "state") and hasattr(ext, "restore") else None
-    return {"u": solver.u.copy(), "v": solver.v.copy(), "a": solver.a.copy(),
-            "f": None if solver.f is None else solver.f.copy(), "time": solver.time,
-            "internals": solver.checkpoint_state(), "state": solver.state.copy(),
-            "ext": None if ext is None else {k: None if v is None else np.array(v, copy=True)
-                                             for k, v in ext.state().items()}}
-
-
-def restore_solver(solver, snap) -> None:
-    """Put the solver back to ``solver_snapshot``'s state (copies: the snapshot stays valid)."""
-    solver.u, solver.v, solver.a = snap["u"].copy(), snap["v"].copy(), snap["a"].copy()
-    solver.f = None if snap["f"] is None else snap["f"].copy()
-    solver.time = snap["time"]
-    solver.restore_state(snap["internals"])
-    solver.state = snap["state"].copy()
-    if snap.get("ext"):                  # the coupled water's state ({} : nothing to restore)
-        solver.ext.restore(snap["ext"])
-
-
 def solver_arrays(solver) -> dict:
-    """The solver's committed fields as checkpoint arrays (``restore_solver_arrays``)."""
-    out = {"u": solver.u, "v": solver.v, "a": solver.a, "f": solver.f}
-    out.update({f"solver_{k}": v for k, v in solver.checkpoint_state().items()})
-    out.update({f"state_{k}": v for k, v in solver.state.as_dict().items()})
+    """The solver's committed state (``JointSolver.checkpoint``, without its coupled water:
+    the reservoir part saves that) in the checkpoint file's layout: u, v, a, f, the interface
+    state ``state_*`` and the other internals as ``solver_*`` (``restore_solver_arrays``)."""
+    d = solver.checkpoint(coupled=False)
+    d.pop("time")
+    out = {k: d.pop(k) for k in ("u", "v", "a")}
+    out["f"] = d.pop("f", None)
+    out.update({k: d.pop(k) for k in [k for k in d if k.startswith("state_")]})
+    out.update({f"solver_{k}": v for k, v in d.items()})
     return out
 
 
@@ -105,11 +84,11 @@ def interface_state(arrs):
 
 def restore_solver_arrays(solver, arrs, time: float) -> None:
     """The rest of ``solver_arrays`` once ``solver.state`` (``interface_state``) and the law
-    are set: u, v, a, f (``set_initial`` evaluates the law on them), then the committed
-    internals exactly as they were, and the time."""
-    solver.set_initial(u=arrs["u"], v=arrs["v"], a=arrs["a"], f=arrs["f"])
-    solver.restore_state({k[7:]: v for k, v in arrs.items() if k.startswith("solver_")})
-    solver.time = float(time)
+    are set: u, v, a, f and the committed internals exactly as they were, and the time
+    (``JointSolver.restore``; the interface state is left as set)."""
+    d = {k[7:]: v for k, v in arrs.items() if k.startswith("solver_")}
+    d.update({k: arrs[k] for k in ("u", "v", "a", "f")}, time=float(time))
+    solver.restore(d)
 
 
 class CheckpointDamaged(ValueError):

@@ -231,7 +231,7 @@ class EnergyBudget:
     def step(self, u, v, f, t, g, state, scan=None, products=None) -> dict:
         """Book the step to the committed (u, v, f, t, g, state); scan: the ``JointScan`` of
         (state, g, t) if the caller has it; products: (K u, M v) of this state if the caller
-        has them, bitwise those of the budget's K and M (``NewmarkSolver.step_products`` of
+        has them, bitwise those of the budget's K and M (``JointSolver.step_products`` of
         the solver built on the same K and M)."""
         u0, v0, f0 = self._prev                 # updated in place to u, v, f by the kernel
         Mv0, Ku0 = self._prods
@@ -349,16 +349,16 @@ class EnergyGuard:
     dissipation (generalized alpha, HHT) only increases it. The water's share of the scheme's
     exchange, E_water_alg (either sign, fixed by the scheme's algebra), is booked apart and
     not in it; a water stepped otherwise (pine_flat's, stepped twice by the uplift's fixed
-    point until solver_snapshot held it, docs/solver.md §9.1) still shows. A step is
+    point until the solver's checkpoint held it, docs/solver.md §9.1) still shows. A step is
     rejected when
 
         jump > GUARD_FRACTION * work + GUARD_FLOOR * scale,
 
     scale = max(static strain energy 1/2 u.f of the static state, the largest |W_ext| +
     |W_water| so far). The run then repeats it from the committed state in 2, 4, ... uniform
-    sub-steps (``NewmarkSolver.step(split=k)``) and stops with an error after GUARD_SPLITS
+    sub-steps (``JointSolver.step(split=k)``) and stops with an error after GUARD_SPLITS
     halvings: such a step is never accepted. The cost: a few scalar differences per step
-    (the budget is formed anyway), and a copy of the committed state (``solver_snapshot``).
+    (the budget is formed anyway), and a copy of the committed state (``JointSolver.checkpoint``).
     """
 
     def __init__(self, e_static: float = 0.0, fraction: float = GUARD_FRACTION,

@@ -6,7 +6,6 @@ from __future__ import annotations
 
 import numpy as np
 
-from .checkpoint import restore_solver, solver_snapshot
 from .safety import FS_CAP, FS_CRITERION
 from .statics import spring_supported
 
@@ -44,7 +43,7 @@ class PostEarthquakeCheck:
         """``f_base_static``: gravity + water (+ tailwater), without uplift. A solve that finds
         no equilibrium reports FS from the load resultants (statically determinate for a
         rigid block) and says so."""
-        from ..solve.newmark import SolverError
+        from ..solve.joint_solver import SolverError
 
         uplift = self.uplift
         if self.absorbing is not None:       # unsupported rock: the static springs again
@@ -52,7 +51,7 @@ class PostEarthquakeCheck:
             solver = spring_supported(main, self.absorbing.K_support)
             solver.set_initial(u=main.u)
         uplift.p = uplift.pressure(solver.state)
-        final = solver_snapshot(solver)
+        final = solver.checkpoint()
         slip0 = self._mean_slips(solver.g)
         try:
             # no relaxation at a limit load here (it is for the crack growth of the
@@ -75,7 +74,7 @@ class PostEarthquakeCheck:
             ok, note = True, "static solve from the final interface state"
             iters = int(rep.iterations)
         except SolverError as e:
-            restore_solver(solver, final)
+            solver.restore(final)
             uplift.p = uplift.pressure(solver.state)
             m = self._resultant_measures(solver, f_base_static)
             ok, iters = False, None

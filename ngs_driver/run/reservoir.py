@@ -2,10 +2,12 @@
 pressure on the upstream face sampled after every step, and their checkpoints. The files are
 written by ``post.reservoir``.
 
-``ReservoirRun.create(model, scene, solver, times, ax, ay)`` returns None when the scene has no
-hydrodynamic reservoir.  For compressible acoustic water it attaches the ``FluidStepper``
-(solve/fluid.py) to the solver: the pressure then lives in the solver's steps; for
-incompressible water and Westergaard the pressure is recovered from the accelerations.
+``ReservoirRun.create(model, scene, times, ax, ay)`` returns None when the scene has no
+hydrodynamic reservoir.  For compressible acoustic water it builds the ``FluidStepper``
+(solve/fluid.py), the coupled field (``field``) that the run gives to the solver's constructor:
+the pressure then lives in the solver's steps; for incompressible water and Westergaard the
+pressure is recovered from the accelerations. The run sets ``solver`` once the solver is
+built.
 """
 from __future__ import annotations
 
@@ -19,12 +21,14 @@ FRACTIONS = (0.0, 0.25, 0.5, 0.75, 0.9)      # elevations / level at which p is 
 
 
 class ReservoirRun:
-    def __init__(self, model, scene, solver, times, ax, ay, restart=None, out=None):
-        self.model, self.scene, self.solver = model, scene, solver
+    def __init__(self, model, scene, times, ax, ay, restart=None, out=None):
+        self.model, self.scene = model, scene
+        self.solver = None                       # set by the run once the solver is built
         self.res = model.reservoir
         self.times, self.ax, self.ay = times, ax, ay
         self.rows = {"t": [], "Fx": [], "Fy": []}
         self.stepper = None
+        self.field = None                        # the coupled field given to the solver
         self.ac = self.res.acoustic
         self.level = self.res.level
         self.ys = [f * self.level for f in FRACTIONS]
@@ -41,21 +45,21 @@ class ReservoirRun:
                       else (self.ac.g_x, self.ac.g_y))
         if self.ac is not None and not self.ac.incompressible:
             from ..solve.fluid import FluidStepper
-            self.stepper = FluidStepper(self.ac, solver, self.ground, self.g)
+            self.stepper = self.field = FluidStepper(self.ac, self.ground, self.g)
         elif self.ac is not None and self.total:
             from ..solve.fluid import GroundPressureLoad
-            GroundPressureLoad(self.ac, solver, self.ground)
+            self.field = GroundPressureLoad(self.ac, self.ground)
         if restart is not None:
             self._restore(*restart)
         self._pts = self.ac.face_stations(FRACTIONS) if self.ac is not None else None
         self._mips = None
 
     @classmethod
-    def create(cls, model, scene, solver, times, ax, ay, restart=None, out=None):
+    def create(cls, model, scene, times, ax, ay, restart=None, out=None):
         """restart: (meta, arrays) of the checkpoint a resumed run starts from, else None."""
         if getattr(model, "reservoir", None) is None:
             return None
-        return cls(model, scene, solver, times, ax, ay, restart, out)
+        return cls(model, scene, times, ax, ay, restart, out)
 
     # -- checkpoints: the water state and the pressure history, in the run's checkpoint -----
     def checkpoint_arrays(self) -> dict:
@@ -63,7 +67,7 @@ class ReservoirRun:
         run's checkpoint: committed with the rest of the run's state, run/checkpoint.py)."""
         arrs = {f"reservoir_rows_{key}": np.asarray(v) for key, v in self.rows.items()}
         if self.stepper is not None:
-            arrs.update({f"reservoir_fluid_{key}": v for key, v in self.stepper.state().items()})
+            arrs.update({f"reservoir_fluid_{key}": v for key, v in self.stepper.checkpoint().items()})
         return arrs
 
     def _restore(self, meta, arrs):

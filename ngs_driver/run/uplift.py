@@ -19,7 +19,6 @@ from __future__ import annotations
 import numpy as np
 
 from ..setup.uplift import heads, joint_extent, pressure_profile
-from .checkpoint import restore_solver, solver_snapshot
 from .joints import debonded_measures
 
 __all__ = ["UpliftField", "Uplift"]
@@ -117,7 +116,7 @@ class Uplift:
         if not dependent:
             f = f_base + self.field.load(p) if self.active else f_base
             return call(f), p, f
-        snap = solver_snapshot(solver)
+        snap = solver.checkpoint()
         for k in range(self.MAX_FIXED_POINT):
             f = f_base + self.field.load(p)
             rep = call(f)
@@ -127,7 +126,7 @@ class Uplift:
             self.fixed_point_iterations += 1
             if k == self.MAX_FIXED_POINT - 1:
                 break
-            restore_solver(solver, snap)
+            solver.restore(snap)
             p = p_new
         self.fixed_point_unconverged += 1
         return rep, p, f
@@ -148,7 +147,7 @@ class Uplift:
 
     def step(self, solver, f_k, split: int = 0):
         """One time step; f_k already holds the static uplift. Returns (report, load used).
-        split: sub-steps of at most dt / 2^split (``NewmarkSolver.step``)."""
+        split: sub-steps of at most dt / 2^split (``JointSolver.step``)."""
         if not self.state_dependent:
             return solver.step(f_k, split), f_k
         f_base = f_k - self.field.load(self.p_static)

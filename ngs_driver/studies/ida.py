@@ -270,7 +270,7 @@ def execute(spec: dict, root: str) -> dict:
     """One IDA run (a Dask task). Returns the result dict, also written to result.json."""
     from ..post.files import atomic_write_json
     from ..scene import from_dict
-    from ..solve.newmark import SolverError
+    from ..solve.joint_solver import SolverError
 
     d = sweep.run_dir(root, spec)
     earlier = sweep.finished(d)
