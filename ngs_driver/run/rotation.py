@@ -8,7 +8,7 @@ at large angles (docs/solver.md §11; Housner 1963, BSSA 53(2):403; Makris & Kon
 * **the joint's gap.** B u holds the linearised rotation theta z x r of a point of the upper
   face (r from the pivot); the exact rigid rotation moves it by (R(theta) - I) r. Their
   difference d is added to the gap through the solver's offset (g = B u + g_offset,
-  ``NewmarkSolver.set_offset``: B and the factorisations are kept);
+  ``JointSolver.set_offset``: B and the factorisations are kept);
 * **the body forces' moment (P-Delta).** Linear statics takes the moment of gravity about the
   pivot with the reference lever arms, M_lin = f . phi_c (phi_c the unit rotation about the
   pivot c); the exact moment of the rotated block is cos(theta) M_lin - sin(theta) Q, with
