@@ -25,6 +25,13 @@ SCENE_DIR = Path(__file__).with_name("scenes")
 # The default section: the Koyna non-overflow monolith (Chopra & Chakrabarti 1973), as the
 # paper uses it (§5): base 70 m, height 103 m, downstream slope break at 66.5 m.
 KOYNA_PROFILE = ((0.0, 0.0), (70.0, 0.0), (19.25, 66.5), (14.8, 103.0), (0.0, 103.0))
+# time.max_rotation's bounds (docs/solver.md §11): the small-rotation kinematics stretch a
+# rotated block by theta^2/2, 5e-3 at 0.1 rad (~150 MPa of spurious stress at E = 31 GPa); the
+# finite-rotation kinematics (run/rotation.py) are exact for a rigid rotation about the pivot
+# at any angle, and 1.0 rad (57 deg) reaches the toppling angle atan(b/h) of every block up to
+# 1.55 times as wide as tall (wider blocks slide before they topple)
+MAX_ROTATION_SUPPORTED = 0.1
+MAX_ROTATION_FINITE = 1.0
 JOINT_NAME_CHARS = set("abcdefghijklmnopqrstuvwxyz0123456789_")
 
 
@@ -135,12 +142,14 @@ class Time:
                          doc="stop (verdict undetermined: the model's range) when the mean "
                              "slip of a joint passes this [m]; alias time.stop_slip (0 there: "
                              "1e4 m, no limit)")
-    # hi: run.collapse.MAX_ROTATION_SUPPORTED (the linearised rotation's stretch theta^2/2)
-    max_rotation: float = _f(0.05, lo=0.0, hi=0.1, lo_open=True,
+    # hi: MAX_ROTATION_FINITE; with solver.kinematics = "small" at most
+    # MAX_ROTATION_SUPPORTED (the linearised rotation's stretch theta^2/2): _scene_checks
+    max_rotation: float = _f(0.05, lo=0.0, hi=MAX_ROTATION_FINITE, lo_open=True,
                              doc="stop (verdict undetermined: the model's range) when the "
                                  "rotation of the block above a joint passes this [rad]; at "
-                                 "most 0.1, where the small-rotation kinematics stretch the "
-                                 "block by theta^2/2 = 5e-3 (docs/solver.md §11)")
+                                 "most 0.1 with solver.kinematics = 'small' (the small-rotation "
+                                 "kinematics stretch the block by theta^2/2 = 5e-3), at most "
+                                 "1.0 with 'finite_rotation' (docs/solver.md §11)")
 
 
 @dataclass(frozen=True)
@@ -253,6 +262,12 @@ class Solver:
                                  "(+ 1e-3 of the run's energy scale) is cut and repeated in "
                                  "sub-steps, never accepted (run.energy.EnergyGuard, "
                                  "docs/run.md §9.1); 0: off (only to show what it stops)")
+    kinematics: str = _f("small", choices=("small", "finite_rotation"),
+                         doc="small: linearised rotations of the blocks (up to "
+                             "time.max_rotation <= 0.1 rad); finite_rotation: the joints' gap "
+                             "and the dead loads' moment follow the exact rigid rotation of "
+                             "the block above each joint, and a block that topples is a "
+                             "collapse (run/rotation.py, docs/solver.md §11)")
     pairing_tolerance: float = _f(0.25, lo=0.0, hi=10.0, lo_open=True,
                                   doc="finite sliding: a joint is paired anew with the face "
                                       "below when a point has slid this fraction of the "
@@ -557,6 +572,11 @@ def _scene_checks(sc):
         if xd - xu <= 1e-6:
             raise ValueError(f"joints[{i}].elevation = {j.elevation!r}: the section has no "
                              "width there")
+    if sc.solver.kinematics == "small" and sc.time.max_rotation > MAX_ROTATION_SUPPORTED:
+        raise ValueError(f"time.max_rotation = {sc.time.max_rotation!r}: out of range with "
+                         f"solver.kinematics = 'small', allowed (0, {MAX_ROTATION_SUPPORTED:g}] "
+                         f"(the small-rotation kinematics); up to {MAX_ROTATION_FINITE:g} rad with "
+                         "solver.kinematics = 'finite_rotation'")
     els = [j.elevation for j in sc.joints]
     if any(b - a < 1e-6 for a, b in zip(els[:-1], els[1:])):
         raise ValueError(f"joints: two joints at the same elevation {els}; allowed: distinct "

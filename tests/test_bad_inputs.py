@@ -190,9 +190,15 @@ SCENES = [
     (["time.integrator=hht", "time.rho_inf=0.3"],
      r"time.rho_inf = 0.3 with time.integrator = 'hht': out of range, allowed \[0.5, 1\]"),
     (["time.max_slip=0"], r"time.max_slip = 0.0: out of range, allowed \(0.0, 10000.0\]"),
-    (["time.max_rotation=0"], r"time.max_rotation = 0.0: out of range, allowed \(0.0, 0.1\]"),
-    # past the small-rotation kinematics (run.collapse.MAX_ROTATION_SUPPORTED)
-    (["time.max_rotation=0.2"], r"time.max_rotation = 0.2: out of range, allowed \(0.0, 0.1\]"),
+    (["time.max_rotation=0"], r"time.max_rotation = 0.0: out of range, allowed \(0.0, 1.0\]"),
+    # past the small-rotation kinematics (scene.MAX_ROTATION_SUPPORTED)
+    (["time.max_rotation=0.2"], r"time.max_rotation = 0.2: out of range with solver.kinematics "
+                                r"= 'small', allowed \(0, 0.1\]"),
+    # past the finite-rotation kinematics (scene.MAX_ROTATION_FINITE)
+    (["solver.kinematics=finite_rotation", "time.max_rotation=1.5"],
+     r"time.max_rotation = 1.5: out of range, allowed \(0.0, 1.0\]"),
+    (["solver.kinematics=large"], r"solver.kinematics = 'large': not allowed, choose one of "
+                                  r"\['small', 'finite_rotation'\]"),
     (["time.max_rotation=-0.1"], r"time.max_rotation = -0.1: out of range"),
     (["time.stop_slip=-1"], r"time.stop_slip = -1: out of range, allowed \[0, 10000\] m \(alias "
                             r"of time.max_slip"),

@@ -15,7 +15,7 @@ import pytest
 
 from interfacelaw import CohesiveParams, ContactParams, FrictionParams, InterfaceLaw
 from ngs_driver.run.energy import GUARD_FLOOR, GUARD_FRACTION, EnergyGuard
-from ngs_driver.solve.newmark import NewmarkSolver
+from ngs_driver.solve.joint_solver import JointSolver
 from toymodel import block_on_block
 
 
@@ -35,8 +35,8 @@ def offset_run(model, method, nsteps=20, dt=2e-3):
     the last point opened by 1 m (slid off its face, run/pairing.OPEN_GAP); then steps under a
     crest load. Returns (solver, displacements)."""
     m = model
-    s = NewmarkSolver(m.K, m.M, None, m.B, m.w, cracked_law(), dt=dt, method=method,
-                      tol_residual=1e-11)
+    s = JointSolver(m.K, m.M, None, m.B, m.w, cracked_law(), dt=dt, method=method,
+                    tol_residual=1e-11)
     s.static(m.gravity)
     off = np.zeros(2 * m.npts)
     off[0::2] = -1e-5
@@ -114,7 +114,7 @@ def test_a_run_repeats_a_step_the_guard_rejects_and_never_accepts_it(tmp_path, m
     from ngs_driver.apps.dam import run
     from ngs_driver.run import energy as energy_mod
     from ngs_driver.scene import load_scene
-    from ngs_driver.solve.newmark import NewmarkSolver, SolverError
+    from ngs_driver.solve.joint_solver import JointSolver, SolverError
 
     sets = ["time.duration=0.02", "output.checkpoint_every=0"]
     real = energy_mod.EnergyGuard.check
@@ -140,17 +140,17 @@ def test_a_run_repeats_a_step_the_guard_rejects_and_never_accepts_it(tmp_path, m
 
     # the reference: step 5 taken in halves directly (split=1), no rejection
     monkeypatch.setattr(energy_mod.EnergyGuard, "check", real)
-    step = NewmarkSolver.step
+    step = JointSolver.step
 
     def halves_at_step5(self, f, split=0):
         return step(self, f, 1 if abs(self.time + self.dt - 0.010) < 1e-9 else split)
 
-    monkeypatch.setattr(NewmarkSolver, "step", halves_at_step5)
+    monkeypatch.setattr(JointSolver, "step", halves_at_step5)
     run(load_scene("sliding_block", sets), tmp_path / "b", progress=False, plots=False)
     b = np.load(tmp_path / "b" / "final_state.npz")["u"]
     assert np.array_equal(a, b)
 
-    monkeypatch.setattr(NewmarkSolver, "step", step)
+    monkeypatch.setattr(JointSolver, "step", step)
     monkeypatch.setattr(energy_mod.EnergyGuard, "check",
                         lambda self, row, t: (False, "forced"))
     with pytest.raises(SolverError, match=r"step 1 .*forced, even in 64 sub-steps"):

@@ -16,7 +16,7 @@ from ngs_driver.setup import joint_inputs, k0_from_scene, resolve  # noqa: E402
 from ngs_driver.fe.model import build_from_scene  # noqa: E402
 from ngs_driver.run.joints import Joints  # noqa: E402
 from ngs_driver.scene import load_scene  # noqa: E402
-from ngs_driver.solve.newmark import NewmarkSolver  # noqa: E402
+from ngs_driver.solve.joint_solver import JointSolver  # noqa: E402
 
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parents[1] / "verification"))
 
@@ -58,8 +58,8 @@ def test_massless_initial_acceleration(massless):
     (K + J)_00 a_0 = -J_0m a_m without it."""
     sc, ml = massless
     joints = Joints(joint_inputs(sc), ml.interface)
-    s = NewmarkSolver(ml.K, ml.M, None, ml.interface.B, ml.interface.w, joints.solver_law(),
-                      dt=0.002, tol_residual=1e-12)
+    s = JointSolver(ml.K, ml.M, None, ml.interface.B, ml.interface.w, joints.solver_law(),
+                    dt=0.002, tol_residual=1e-12)
     s.static(ml.f_gravity + ml.f_water)
     z = massless_dofs(ml.M)
     f = ml.f_gravity + ml.f_water - ml.M @ ml.r_x * 1.0
@@ -131,7 +131,7 @@ def test_absorbing_rock_reproduces_the_outcrop_motion():
     joints = Joints(joint_inputs(sc), it)
     rock = AbsorbingRock(model, sc.materials.rock, gm, sc.ground_motion.start)
     up = Uplift(resolve(sc), it, joints)
-    s = NewmarkSolver(model.K, model.M, rock.C, it.B, it.w, joints.solver_law(), dt=0.002)
+    s = JointSolver(model.K, model.M, rock.C, it.B, it.w, joints.solver_law(), dt=0.002)
     _, f, _ = solve_pre_earthquake(s, model.f_gravity + model.f_water, up, rock)
     s.initial_acceleration(f + rock.force(0.0))
     Vr = model.fes.components[-1]

@@ -320,8 +320,11 @@ def test_koyna_1967_runs_with_its_neck_under_water(tmp_path):
               "mesh.h_coarse=6.0", "mesh.growth=1.5", "reservoir.h_max=12.0",
               "joints=[{name='neck', elevation=66.5, h_end=1.0, h_joint=4.0, friction=0.6, "
               "sigma_max=1.5e6, tau_max=1.5e6, G_I=150.0, damage=true}]"]
+    # small kinematics: the finite rotations' gap offset books no work, an O(theta^2) term that
+    # is 1.1e-5 of the input work here (docs/solver.md §11.1), above this budget's 1e-8
     sc = load_scene("koyna_1967", coarse + ["time.duration=0.1", "output.checkpoint_every=0",
-                                            "ground_motion.scale=0.001"])
+                                            "ground_motion.scale=0.001",
+                                            "solver.kinematics=small", "time.max_rotation=0.05"])
     assert sc.materials.plane == "stress" and sc.reservoir.level == 91.75
     assert [j.elevation for j in sc.joints] == [66.5]
     dry = build_from_scene(load_scene("koyna_1967", coarse + ["reservoir.model=none"]))
@@ -350,6 +353,8 @@ def test_koyna_1967_follows_the_published_analyses():
     sc = load_scene("koyna_1967")
     assert sc.materials.plane == "stress" and sc.geometry.foundation == "rigid"
     assert sc.reservoir.level == 91.75
+    # the neck block may rock to toppling (finite rotations, a limit past its toppling angle)
+    assert sc.solver.kinematics == "finite_rotation" and sc.time.max_rotation == 1.0
     d = sc.materials.dam
     assert (d.E, d.nu, d.rho) == (31.027e9, 0.2, 2643.0)
     (neck,) = sc.joints

@@ -340,7 +340,7 @@ def test_checkpoints_written_in_the_background_in_order(tmp_path):
 def _toy_newmark(seed):
     """A 200-DOF Newmark solver with Rayleigh C and one interface point, and random committed
     u, v, a spanning nine decades: (solver, rng, K, M)."""
-    from ngs_driver.solve.newmark import NewmarkSolver
+    from ngs_driver.solve.joint_solver import JointSolver
     import interfacelaw as il
     rng = np.random.default_rng(seed)
     n = 200
@@ -351,26 +351,25 @@ def _toy_newmark(seed):
     B = sp.csr_matrix((np.r_[1.0, -1.0, 1.0, -1.0], ([0, 0, 1, 1], [0, 1, 2, 3])), shape=(2, n))
     law = il.InterfaceLaw(il.CohesiveParams.from_fracture_energy(3e6, 3e6, 100.0, 0.2, 1.0),
                           il.ContactParams("linear"))
-    s = NewmarkSolver(K, M, C, B, np.ones(1), law, dt=1e-3)
+    s = JointSolver(K, M, C, B, np.ones(1), law, dt=1e-3)
     s.u, s.v, s.a = (rng.standard_normal(n) * 10.0 ** rng.integers(-6, 3) for _ in range(3))
     return s, rng, K, M
 
 
 def test_newmark_rhs_fused_is_numpy_bit_for_bit():
     """The step's right-hand side M (c0 u + c2 v + c3 a) + C (c1 u + c4 v + c5 a) + f formed in
-    one compiled pass (``NewmarkSolver._rhs`` with C given, alpha_hht = 0) equals the numpy /
+    one compiled pass (``JointSolver.right_hand_side`` with C given, alpha_hht = 0) equals the numpy /
     scipy expression bit for bit: the same operations in the same order."""
     s, rng, K, M = _toy_newmark(12)
     n = s.ndof
     f = rng.standard_normal(n)
-    fused = s._rhs(1e-3, f)
-    s._mc = None                                 # the numpy / scipy path
-    ref = s._rhs(1e-3, f)
+    fused = s.right_hand_side(1e-3, f)
+    ref = s.right_hand_side(1e-3, f, fused=False)    # the numpy / scipy path
     assert np.array_equal(fused, ref)
 
 
 def test_step_products_feed_the_budget_and_the_next_rhs_bit_for_bit():
-    """``NewmarkSolver.step_products`` (K u, M v of the committed state, and the next step's
+    """``JointSolver.step_products`` (K u, M v of the committed state, and the next step's
     M x, C y in the same pass) gives the energy budget the products it would form itself and
     the next step the right-hand side it would form itself, bit for bit; a step of another
     size (a cut) does not take the kept products."""
@@ -382,16 +381,15 @@ def test_step_products_feed_the_budget_and_the_next_rhs_bit_for_bit():
     assert np.array_equal(Ku, K @ s.u) and np.array_equal(Ku, Ku_ref)
     assert np.array_equal(Mv, M @ s.v) and np.array_equal(Mv, Mv_ref)
     f = rng.standard_normal(n)
-    kept = s._rhs(1e-3, f)                       # from the kept M x, C y
-    assert s._rhs_next is not None
-    s._rhs_next = None
-    assert np.array_equal(kept, s._rhs(1e-3, f))
+    kept = s.right_hand_side(1e-3, f)            # from the kept M x, C y
+    assert s.products_kept
+    s.forget_products()
+    assert np.array_equal(kept, s.right_hand_side(1e-3, f))
     s.step_products()
-    half = s._rhs(0.5e-3, f)                     # another step size: formed afresh
-    s._rhs_next = None
-    assert np.array_equal(half, s._rhs(0.5e-3, f))
-    s._mc = None
-    assert np.array_equal(kept, s._rhs(1e-3, f))  # and numpy's expression
+    half = s.right_hand_side(0.5e-3, f)          # another step size: formed afresh
+    s.forget_products()
+    assert np.array_equal(half, s.right_hand_side(0.5e-3, f))
+    assert np.array_equal(kept, s.right_hand_side(1e-3, f, fused=False))  # and numpy's expression
 
 
 @pytest.mark.parametrize("name, sets", [("koyna", []), ("koyna_1967", []),
@@ -435,9 +433,10 @@ def test_every_part_of_a_run_keeps_the_protocol():
     from ngs_driver.run.safety import SlidingSafety
     from ngs_driver.run.screening import Screening
     from ngs_driver.run.uplift import Uplift
+    from ngs_driver.run.rotation import FiniteRotation
     classes = [SolverPart, Uplift, Screening, ReservoirRun, Joints, SlidingSafety, EnergyBudget,
                StepHistory, EnergyGuard, SizeScale, JointPairing, Snapshots, OutputsStep,
-               Progress, HeelOpening, CollapseRule, CheckpointStep]
+               Progress, HeelOpening, FiniteRotation, CollapseRule, CheckpointStep]
     for c in classes:
         assert all(callable(getattr(c, m, None)) for m in
                    ("before_step", "after_step", "checkpoint", "restore")), c

@@ -17,7 +17,7 @@ from ngs_driver.run.safety import SlidingSafety  # noqa: E402
 from ngs_driver.run.statics import solve_pre_earthquake  # noqa: E402
 from ngs_driver.run.uplift import Uplift  # noqa: E402
 from ngs_driver.scene import load_scene  # noqa: E402
-from ngs_driver.solve.newmark import NewmarkSolver  # noqa: E402
+from ngs_driver.solve.joint_solver import JointSolver  # noqa: E402
 
 RIGID = ["geometry.foundation=rigid"]
 RHO_G, H, B = 1000.0 * 9.81, 92.0, 70.0
@@ -89,8 +89,8 @@ def _precracked(model, scene, a_target):
     nodes = np.unique(np.round(it.segments[:, :, 0].ravel(), 12))
     a = float(nodes[np.argmin(np.abs(nodes - a_target))])
     joints = Joints(joint_inputs(scene), it)
-    s = NewmarkSolver(model.K, model.M, None, it.B, it.w, joints.solver_law(), dt=0.002,
-                      tol_residual=1e-11, max_iter=60)
+    s = JointSolver(model.K, model.M, None, it.B, it.w, joints.solver_law(), dt=0.002,
+                    tol_residual=1e-11, max_iter=60)
     st = s.state.copy()
     st.kappa[it.x < a] = 1.0
     s.state = st
@@ -146,8 +146,8 @@ def test_crack_dependent_uplift_is_a_fixed_point_of_each_step(rigid_model, in_cr
                                             "interface.damage=false"])
     it = rigid_model.interface
     joints = Joints(joint_inputs(sc), it)
-    s = NewmarkSolver(rigid_model.K, rigid_model.M, None, it.B, it.w, joints.solver_law(),
-                      dt=0.002, tol_residual=1e-10, max_iter=60)
+    s = JointSolver(rigid_model.K, rigid_model.M, None, it.B, it.w, joints.solver_law(),
+                    dt=0.002, tol_residual=1e-10, max_iter=60)
     st = s.state.copy()
     st.kappa[it.x < 10.0] = 1.0
     s.state = st
@@ -171,8 +171,8 @@ def test_post_earthquake_without_equilibrium_reports_the_resultants(rigid_model)
     sc = load_scene("koyna_smoke", RIGID + ["uplift.model=linear", "uplift.in_crack=zero"])
     it = rigid_model.interface
     joints = Joints(joint_inputs(sc), it)
-    s = NewmarkSolver(rigid_model.K, rigid_model.M, None, it.B, it.w, joints.solver_law(),
-                      dt=0.002, max_iter=10)
+    s = JointSolver(rigid_model.K, rigid_model.M, None, it.B, it.w, joints.solver_law(),
+                    dt=0.002, max_iter=10)
     st = s.state.copy()
     st.kappa[:] = 1.0
     s.state = st

@@ -187,6 +187,7 @@ def test_rotation_past_max_rotation_is_undetermined_and_sliding_off_is_a_collaps
     m = {"base_slip": 0.1, "base_rotation": 0.0, "neck_slip": 19.25, "neck_rotation": 0.0}
     c = rule.check(10, 0.02, 0.002, m, None, None, None)
     assert c["verdict"] == "collapse" and "slid off" in c["reason"] and c["joint"] == "neck"
+    assert c["mode"] == "sliding off"                # the summary names the collapse's mode
     m["neck_slip"] = 19.0                            # still on its face: the run goes on
     rule._prev = None
     assert rule.check(10, 0.02, 0.002, m, None, None, None) is None

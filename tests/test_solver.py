@@ -1,4 +1,4 @@
-"""Tests of ngs_driver.solve.newmark (condensed interface Newton vs full Newton, Newmark, step cutting).
+"""Tests of ngs_driver.solve.joint_solver (condensed interface Newton vs full Newton, Newmark, step cutting).
 
 The model is toymodel.block_on_block: a 4 m x 2 m elastic "dam" on an
 8 m x 2 m "rock", P1 triangles, matching interface nodes, 2 Gauss points per interface segment.
@@ -11,7 +11,7 @@ pytest.importorskip("scipy")
 
 from interfacelaw import (CohesiveParams, ContactParams, DamageParams, FrictionParams,
                           InterfaceLaw)
-from ngs_driver.solve.newmark import NewmarkSolver, SolverError
+from ngs_driver.solve.joint_solver import JointSolver, SolverError
 from toymodel import block_on_block
 
 
@@ -37,7 +37,7 @@ def crest_load(m, n, dt=2e-3, amp=1.2e5, freq=10.0):
 
 
 def run(m, law, method, nsteps=60, dt=2e-3, C=None, **kw):
-    s = NewmarkSolver(m.K, m.M, C, m.B, m.w, law, dt=dt, method=method, **kw)
+    s = JointSolver(m.K, m.M, C, m.B, m.w, law, dt=dt, method=method, **kw)
     s.static(m.gravity)
     U, hist = [], dict(gN_max=0.0, closed_after_debond=False, slip=0.0, D=0.0, cuts=0)
     for n in range(1, nsteps + 1):
@@ -81,8 +81,8 @@ def test_set_law_size_scale_update(model):
     law2 = law.with_params(cohesive=law.cohesive.replace(sigma_max=3.3e4, l_Nc=2.2e-4))
     out = []
     for method in ("condensed", "full"):
-        s = NewmarkSolver(model.K, model.M, None, model.B, model.w, law, dt=2e-3,
-                          method=method, tol_residual=1e-11)
+        s = JointSolver(model.K, model.M, None, model.B, model.w, law, dt=2e-3,
+                        method=method, tol_residual=1e-11)
         s.static(model.gravity)
         for n in range(1, 31):
             if n == 10:
@@ -121,7 +121,7 @@ def test_linear_equals_plain_newmark(model, method):
     C = 1e-4 * m.K + 2.0 * m.M
     dt = 1e-3
     f_list = [m.gravity + 1e7 * np.sin(2 * np.pi * 30 * n * dt) * m.crest_x for n in range(41)]
-    s = NewmarkSolver(m.K, m.M, C, m.B, m.w, law, dt=dt, method=method, tol_residual=1e-12)
+    s = JointSolver(m.K, m.M, C, m.B, m.w, law, dt=dt, method=method, tol_residual=1e-12)
     s.static(f_list[0])
     u0 = s.u.copy()
     U = []
@@ -130,7 +130,7 @@ def test_linear_equals_plain_newmark(model, method):
         assert rep.cuts == 0
         U.append(s.u.copy())
     if method == "condensed":
-        assert s._active.sum() == 0                     # never left the elastic branch
+        assert s.active.sum() == 0                     # never left the elastic branch
     Ur = plain_newmark(m, Ktot, u0, np.zeros(m.ndof), f_list, dt, C=C)
     assert np.abs(np.array(U) - Ur).max() <= 1e-10 * np.abs(Ur).max()
 
@@ -138,7 +138,7 @@ def test_linear_equals_plain_newmark(model, method):
 def test_energy_conserved_undamped_average_acceleration(model):
     m = model
     law = strong_elastic_law()
-    s = NewmarkSolver(m.K, m.M, None, m.B, m.w, law, dt=5e-4)
+    s = JointSolver(m.K, m.M, None, m.B, m.w, law, dt=5e-4)
     s.static(1e7 * m.crest_x)                 # pre-stressed, then released
     zero = np.zeros(m.ndof)
     s.initial_acceleration(zero)
@@ -157,7 +157,7 @@ def test_step_is_cut_and_matches_smaller_dt(model):
     m = model
     law = weak_law()
     F = m.gravity + 1.6e5 * m.crest_x
-    s = NewmarkSolver(m.K, m.M, None, m.B, m.w, law, dt=2e-2, tol_residual=1e-11)
+    s = JointSolver(m.K, m.M, None, m.B, m.w, law, dt=2e-2, tol_residual=1e-11)
     s.static(m.gravity)
     s.max_iter = 6
     rep = s.step(F)
@@ -165,7 +165,7 @@ def test_step_is_cut_and_matches_smaller_dt(model):
     h = min(rep.dts)
     assert all(d == h for d in rep.dts)
     nsub = len(rep.dts)
-    r = NewmarkSolver(m.K, m.M, None, m.B, m.w, law, dt=h, tol_residual=1e-11)
+    r = JointSolver(m.K, m.M, None, m.B, m.w, law, dt=h, tol_residual=1e-11)
     r.static(m.gravity)
     for k in range(1, nsub + 1):
         rr = r.step(m.gravity + (k / nsub) * (F - m.gravity))
@@ -178,7 +178,7 @@ def test_step_is_cut_and_matches_smaller_dt(model):
 def test_min_dt_raises_and_keeps_committed_state(model):
     m = model
     law = weak_law()
-    s = NewmarkSolver(m.K, m.M, None, m.B, m.w, law, dt=2e-2, min_dt=1e-2)
+    s = JointSolver(m.K, m.M, None, m.B, m.w, law, dt=2e-2, min_dt=1e-2)
     s.static(m.gravity)
     s.max_iter = 1
     u0, st0 = s.u.copy(), s.state.copy()
@@ -204,7 +204,7 @@ def test_hht_linear_dissipates(model):
     m = model
     ratio = {}
     for a in (0.0, -0.1):
-        s = NewmarkSolver(m.K, m.M, None, m.B, m.w, strong_elastic_law(), dt=5e-4, alpha_hht=a)
+        s = JointSolver(m.K, m.M, None, m.B, m.w, strong_elastic_law(), dt=5e-4, alpha_hht=a)
         s.static(1e7 * m.crest_x)
         zero = np.zeros(m.ndof)
         s.initial_acceleration(zero)
@@ -218,7 +218,7 @@ def test_hht_linear_dissipates(model):
 
 def test_report_fields(model):
     law = weak_law()
-    s = NewmarkSolver(model.K, model.M, None, model.B, model.w, law, dt=2e-3)
+    s = JointSolver(model.K, model.M, None, model.B, model.w, law, dt=2e-3)
     rep = s.static(model.gravity)
     assert rep.iterations >= 1 and rep.cuts == 0
     rep = s.step(crest_load(model, 1))
@@ -235,15 +235,16 @@ def test_relative_dof_jacobian_matches_full(model, paired):
     same. Both agree with the full Newton to 1e-8 (tolerance 1e-11; measured ~1e-12)."""
     import scipy.sparse as sp
     law = weak_law()
-    s = NewmarkSolver(model.K, model.M, None, model.B, model.w, law, dt=2e-3,
-                      tol_residual=1e-11)
-    nI = s._Idofs.size
-    assert s._Dt.shape == (nI, nI // 2)
-    assert abs(s._G @ s._Dt.T - s._BI).max() == 0.0           # B_I = G Delta exactly
+    s = JointSolver(model.K, model.M, None, model.B, model.w, law, dt=2e-3,
+                    tol_residual=1e-11)
+    J0 = s.joints                                  # solve/interface.py JointOperator
+    nI = J0.dofs.size
+    assert J0.Dt.shape == (nI, nI // 2)
+    assert abs(J0.G @ J0.Dt.T - J0.BI).max() == 0.0           # B_I = G Delta exactly
     s.static(model.gravity)
     if not paired:
-        s._G, s._Dt = sp.csr_matrix(s._BI), sp.identity(nI, format="csr")
-        s._GT = s._G.T.tocsr()
+        J0.G, J0.Dt = sp.csr_matrix(J0.BI), sp.identity(nI, format="csr")
+        J0.GT = J0.G.T.tocsr()
     Uc = []
     for n in range(1, 31):
         s.step(crest_load(model, n))
@@ -261,8 +262,8 @@ def test_jacobian_reuse_same_history(model):
     law = weak_law()
     runs = {}
     for reuse in (True, False):
-        s = NewmarkSolver(model.K, model.M, None, model.B, model.w, law, dt=2e-3,
-                          tol_residual=1e-11, jacobian_reuse=reuse, few_max=0)
+        s = JointSolver(model.K, model.M, None, model.B, model.w, law, dt=2e-3,
+                        tol_residual=1e-11, jacobian_reuse=reuse, few_max=0)
         s.static(model.gravity)
         U = []
         for n in range(1, 31):
@@ -330,23 +331,18 @@ def test_forget_jacobian_makes_a_restart_bitwise(model):
     law = weak_law()
 
     def make():
-        return NewmarkSolver(model.K, model.M, None, model.B, model.w, law, dt=2e-3,
-                             tol_residual=1e-11, few_max=0)
+        return JointSolver(model.K, model.M, None, model.B, model.w, law, dt=2e-3,
+                           tol_residual=1e-11, few_max=0)
     a = make()
     a.static(model.gravity)
     for n in range(1, 16):
         a.step(crest_load(model, n))
-    saved = (a.u.copy(), a.v.copy(), a.a.copy(), a.f.copy(), a.state, a.time,
-             {k: getattr(a, k).copy() for k in ("t", "g", "_phi", "_active")})
-    assert any(e.jac_lu is not None for e in a._cache.values())
+    saved = a.checkpoint()               # what the run's checkpoint saves
+    assert a.jacobian_kept
     a.forget_jacobian()
     before = dict(a.stats)
     b = make()
-    b.state = saved[4]
-    b.set_initial(u=saved[0], v=saved[1], a=saved[2], f=saved[3])
-    b.time = saved[5]
-    for k, val in saved[6].items():            # as the run's checkpoint restores them
-        setattr(b, k, val)
+    b.restore(saved)                           # as a resumed run does
     for n in range(16, 31):
         a.step(crest_load(model, n))
         b.step(crest_load(model, n))
@@ -427,7 +423,7 @@ def test_generalized_alpha_spectral_radius(model, rho):
     energies = {}
     for r in (rho, 1.0):
         it = Integrator.make("generalized-alpha", rho_inf=r)
-        s = NewmarkSolver(m.K, m.M, None, m.B, m.w, law, dt=2e-3, integrator=it)
+        s = JointSolver(m.K, m.M, None, m.B, m.w, law, dt=2e-3, integrator=it)
         s.static(np.zeros(m.K.shape[0]))
         s.set_initial(u=np.zeros(m.K.shape[0]), v=np.random.default_rng(1).standard_normal(
             m.K.shape[0]) * 1e-3, a=None, f=np.zeros(m.K.shape[0]))
@@ -451,13 +447,47 @@ def test_alpha_rhs_fused_equals_numpy(model):
     m = model
     rng = np.random.default_rng(7)
     C = (0.3 * m.M + 1e-3 * m.K).tocsr()
-    s = NewmarkSolver(m.K, m.M, C, m.B, m.w, weak_law(), dt=2e-3,
-                      integrator=Integrator.make("generalized-alpha", rho_inf=0.6))
+    s = JointSolver(m.K, m.M, C, m.B, m.w, weak_law(), dt=2e-3,
+                    integrator=Integrator.make("generalized-alpha", rho_inf=0.6))
     n = m.K.shape[0]
     s.set_initial(u=1e-4 * rng.standard_normal(n), v=rng.standard_normal(n) * 1e-2,
                   a=rng.standard_normal(n), f=rng.standard_normal(n))
     f = rng.standard_normal(n)
-    fused = s._rhs(2e-3, f)
-    s._mc = None                                      # the numpy path
-    plain = s._rhs(2e-3, f)
+    fused = s.right_hand_side(2e-3, f)
+    plain = s.right_hand_side(2e-3, f, fused=False)     # the numpy path
     assert np.linalg.norm(fused - plain) <= 1e-13 * np.linalg.norm(plain)
+
+
+def test_coupled_fields_declare_the_protocol():
+    """The water classes give the solver every method of ``CoupledField`` (solve/coupled.py):
+    the protocol is what ``JointSolver`` calls, so a renamed or missing method fails here, not
+    in a long reservoir run."""
+    import inspect
+    from ngs_driver.solve.coupled import CoupledField
+    from ngs_driver.solve.fluid import FluidStepper, GroundPressureLoad
+    wanted = {n for n, _ in inspect.getmembers(CoupledField, inspect.isfunction)
+              if not n.startswith("_")}
+    assert wanted == {"bind", "matrix", "rhs", "commit", "checkpoint", "restore"}
+    for cls in (FluidStepper, GroundPressureLoad):
+        assert all(callable(getattr(cls, n, None)) for n in wanted), cls
+
+
+def test_checkpoint_restore_round_trip_bit_for_bit(model):
+    """``checkpoint()`` holds copies (a later step does not change them) and ``restore`` of it
+    makes a fresh solver take the same next steps bit for bit (a repeated step, a resume)."""
+    law = weak_law()
+    a = JointSolver(model.K, model.M, None, model.B, model.w, law, dt=2e-3)
+    a.static(model.gravity)
+    for n in range(1, 6):
+        a.step(crest_load(model, n))
+    d = a.checkpoint()
+    u5 = d["u"].copy()
+    a.forget_jacobian()
+    a.step(crest_load(model, 6))
+    assert np.array_equal(d["u"], u5) and not np.array_equal(a.u, u5)
+    b = JointSolver(model.K, model.M, None, model.B, model.w, law, dt=2e-3)
+    b.restore(d)
+    assert b.time == d["time"]
+    b.step(crest_load(model, 6))
+    assert np.array_equal(a.u, b.u) and np.array_equal(a.t, b.t)
+    assert np.array_equal(a.state.damage, b.state.damage)

@@ -13,7 +13,7 @@ pytest.importorskip("ngsolve")
 
 from ngs_driver.apps.dam import run  # noqa: E402
 from ngs_driver.scene import load_scene  # noqa: E402
-from ngs_driver.solve.newmark import NewmarkSolver  # noqa: E402
+from ngs_driver.solve.joint_solver import JointSolver  # noqa: E402
 
 # an attempt cycling between active sets: the residual drops to 2e-4, then repeats
 # 3e-4 ... 1.2e-4 without ever halving the best before (the failing attempts of
@@ -25,7 +25,7 @@ CYCLING = [1e-2, 1e-3, 2e-4, 2e-4, 1.5e-4, 3e-4, 2e-4, 1.5e-4, 1.2e-4, 3e-4, 2e-
 def first_stall(hist, m):
     """Number of residuals seen when the rule first fires (None: never)."""
     for k in range(1, len(hist) + 1):
-        if NewmarkSolver.stalled(hist[:k], m):
+        if JointSolver.stalled(hist[:k], m):
             return k
     return None
 

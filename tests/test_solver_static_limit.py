@@ -3,7 +3,7 @@ dead load and full pool, no uplift. The brittle base joint (G_I = 250 N/m) crack
 each advance of the crack tip is a limit load under load control (the point at peak traction
 switches from its elastic to its softening branch and the determinant of the condensed
 Jacobian changes sign there), so Newton with load continuation stagnated at 1/1024 of the load
-("static solve did not converge ... 1/1024 increments") before ``NewmarkSolver._relax``.
+("static solve did not converge ... 1/1024 increments") before ``JointSolver._relax``.
 """
 import numpy as np
 
@@ -46,7 +46,7 @@ def test_static_without_equilibrium_says_the_dam_slides(tmp_path):
     message that names the cause, not the generic non-convergence."""
     import pytest
 
-    from ngs_driver.solve.newmark import SolverError
+    from ngs_driver.solve.joint_solver import SolverError
     scene = load_scene("sliding_block", ["interface.friction=0.02", "reservoir.level=9",
                                          "time.duration=0.02"])
     a = prepare(scene, str(tmp_path / "out"), progress=False, outputs=RunOutputs(plots=False))
@@ -82,7 +82,7 @@ def test_static_without_relaxation_fails_at_the_limit_load(tmp_path):
     the continuation's message, no damped dynamics run (no relax_steps booked)."""
     import pytest
 
-    from ngs_driver.solve.newmark import SolverError
+    from ngs_driver.solve.joint_solver import SolverError
     a = _pine_flat_limit(tmp_path)
     s = a.solver
     f = a.f_base if hasattr(a, "f_base") else None

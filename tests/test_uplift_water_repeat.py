@@ -46,7 +46,7 @@ def _load(an):
 
 
 def test_a_restored_step_repeats_the_water_bitwise(run):
-    s, ext = run.solver, run.solver.ext
+    s, ext = run.solver, run.solver.coupled
     f = _load(run)
     snap = SolverPart(s).checkpoint()
     s.step(f)
@@ -61,14 +61,14 @@ def test_a_restored_step_repeats_the_water_bitwise(run):
 
 
 def test_uplift_fixed_point_steps_the_water_once(run):
-    s, ext, up = run.solver, run.solver.ext, run.uplift
+    s, ext, up = run.solver, run.solver.coupled, run.uplift
     f = _load(run)
     f_base = f - up.load(up.p_static)
     snap = SolverPart(s).checkpoint()
-    V0 = ext.state()["energy"][:2].copy()
+    V0 = ext.checkpoint()["energy"][:2].copy()
     # one solve with the pressure in force (the crack state does not change in this step)
     rep, p, _ = up.solve(s, lambda ff: s.step(ff), f_base, up.p, True)
-    p_ref, u_ref, V1 = ext.p.copy(), s.u.copy(), ext.state()["energy"][:2].copy()
+    p_ref, u_ref, V1 = ext.p.copy(), s.u.copy(), ext.checkpoint()["energy"][:2].copy()
     SolverPart(s).restore(snap)
     # forced to a second solve: the first with half the pressure, then the converged one
     n0 = up.fixed_point_iterations
@@ -77,7 +77,7 @@ def test_uplift_fixed_point_steps_the_water_once(run):
     # the water stepped once: V advanced by one step's ground velocity, p as the single
     # solve's (1e-9: the second solve may reuse the interface Jacobian of the first; Newton
     # tolerance 1e-8 relative, measured equal to ~1e-15)
-    assert np.array_equal(ext.state()["energy"][:2], V1) and not np.array_equal(V1, V0)
+    assert np.array_equal(ext.checkpoint()["energy"][:2], V1) and not np.array_equal(V1, V0)
     assert np.abs(ext.p - p_ref).max() <= 1e-9 * np.abs(p_ref).max()
     assert np.abs(s.u - u_ref).max() <= 1e-9 * np.abs(u_ref).max()
     SolverPart(s).restore(snap)

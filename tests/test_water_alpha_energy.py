@@ -37,7 +37,7 @@ def water_defects(tmp_path, integrator):
     try:
         an.static()
         s = an.solver
-        ext = s.ext
+        ext = s.coupled
         prev = None
         more = True
         while more:
@@ -53,8 +53,8 @@ def water_defects(tmp_path, integrator):
                 without += abs(bal)
                 scale += abs(wq)
             prev = e
-            R = ext._drift()
-            drift = max(drift, float(np.abs(ext._R - R).max()))
+            R = ext.recomputed_drift()
+            drift = max(drift, float(np.abs(ext.drift - R).max()))
             rmax = max(rmax, float(np.abs(R).max()))
         an.close()
         # the budget books the term as a water energy, outside E_alg (the guard's measure):

@@ -157,11 +157,11 @@ def variant(s, method="condensed"):
     """A solver on the same matrices, law and options as ``s`` with another Newton method,
     started from s's committed state (the full method has no low-rank damping part: compare it
     on scenes with ``damping.model`` rayleigh or stiffness)."""
-    from ngs_driver.solve.newmark import NewmarkSolver
-    v = NewmarkSolver(s.K, s.M, s.C, s.B, s.w, s.law, dt=s.dt, method=method,
-                      integrator=s.integrator,
-                      C_lowrank=s.C_lowrank if method == "condensed" else None,
-                      tol_residual=s.tol_residual, max_iter=s.max_iter, min_dt=s.min_dt)
+    from ngs_driver.solve.joint_solver import JointSolver
+    v = JointSolver(s.K, s.M, s.C, s.B, s.w, s.law, dt=s.dt, method=method,
+                    integrator=s.integrator,
+                    C_lowrank=s.C_lowrank if method == "condensed" else None,
+                    tol_residual=s.tol_residual, max_iter=s.max_iter, min_dt=s.min_dt)
     v.state = s.state
     v.set_initial(u=s.u.copy(), v=s.v.copy(), a=s.a.copy(), f=s.f.copy())
     v.time = s.time

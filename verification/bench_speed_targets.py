@@ -177,7 +177,7 @@ def t1_floor(nonlinear_run: dict, repeats: int = 300) -> dict:
 # the bookkeeping of ``Analysis.step`` around it; inclusive times (a row holds the rows it calls)
 BREAKDOWN = (
     ("ngs_driver.run.analysis:Analysis", "step", "`Analysis.step`, everything"),
-    ("ngs_driver.run.uplift:Uplift", "step", "the solver's step (`Uplift.step` → `NewmarkSolver.step`)"),
+    ("ngs_driver.run.uplift:Uplift", "step", "the solver's step (`Uplift.step` → `JointSolver.step`)"),
     ("ngs_driver.solve.sparse:SparseFactor", "forward", "— forward halves, whole vectors (structure and water)"),
     ("ngs_driver.solve.sparse:SparseFactor", "backward", "— backward halves, whole vectors (structure and water)"),
     ("ngs_driver.solve.sparse:SparseFactor", "backward_at", "— backward halves at the interface DOFs"),
@@ -185,7 +185,7 @@ BREAKDOWN = (
     ("ngs_driver.solve.fluid:FluidStepper", "rhs", "— the water's rows (`FluidStepper.rhs`)"),
     ("ngs_driver.solve.fluid:FluidStepper", "commit", "— the water's state (`FluidStepper.commit`)"),
     ("interfacelaw.law:InterfaceLaw", "evaluate", "— the interface law"),
-    ("ngs_driver.solve.newmark:NewmarkSolver", "step_products", "the step's products (K u, M v for the energy; M x, C y, C v for the next right-hand side)"),
+    ("ngs_driver.solve.joint_solver:JointSolver", "step_products", "the step's products (K u, M v for the energy; M x, C y, C v for the next right-hand side)"),
     ("ngs_driver.run.energy:EnergyBudget", "step", "bookkeeping: energy budget"),
     ("ngs_driver.run.reservoir:ReservoirRun", "sample", "bookkeeping: reservoir stations"),
     ("ngs_driver.run.joints:Joints", "scan", "bookkeeping: joint scan"),

@@ -17,7 +17,7 @@ debonds over its 70 m "in one or two steps" once the heel's damage reaches 1:
 
 Every run goes through ``ngs_driver.run.prepare`` (the ``dam-seismic run`` path) with
 ``--set`` overrides; the only addition is an observer of the solver's accepted sub-steps
-(``NewmarkSolver.commit_observers``: time, sub-step, debonded length, max D and each point's
+(``JointSolver.commit_observers``: time, sub-step, debonded length, max D and each point's
 debonding time), because the event happens inside the cut sub-steps of one or two steps. Per
 run: the times at which the debonded length of the base passes 10 % and reaches 100 %, that
 duration in seconds, in nominal steps and in accepted sub-steps, the Newton iterations (accepted

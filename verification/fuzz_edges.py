@@ -90,7 +90,7 @@ def run_edge(key, value, outdir) -> dict:
     from ngs_driver.apps.dam import run
     from ngs_driver.scene import load_scene
     from ngs_driver.setup import validate
-    from ngs_driver.solve.newmark import SolverError
+    from ngs_driver.solve.joint_solver import SolverError
     row = {"key": key, "value": value}
     why = skip_reason(key, value)
     if why:

@@ -2,7 +2,7 @@
 the crest's horizontal displacement history (relative to the ground).
 
 * ours: the project's FE model (NGSolve assembly, `fe.model.build_model`, base clamped) and the
-  project's time stepper (`solve.newmark.NewmarkSolver`, average acceleration), Rayleigh
+  project's time stepper (`solve.joint_solver.JointSolver`, average acceleration), Rayleigh
   C = a0 M + a1 K with 5 % at modes 1 and 3 from the project's modal analysis;
 * theirs: scikit-fem assembling its own K and M (its own linear-elasticity form and Lame map)
   on the same triangles, its own eigen-solution for the Rayleigh coefficients (the same
@@ -43,7 +43,7 @@ def ours(h: float, duration: float, dt: float, plane: str = "stress") -> dict:
     from ngs_driver.fe.model import Material, build_model
     from ngs_driver.scene import load_scene
     from ngs_driver.setup import load_ground_motion
-    from ngs_driver.solve.newmark import NewmarkSolver
+    from ngs_driver.solve.joint_solver import JointSolver
 
     sc = load_scene("pine_flat", [f'ground_motion.record="{RECORD}"', f"time.dt={dt}",
                                   f"time.duration={duration}"])
@@ -61,7 +61,7 @@ def ours(h: float, duration: float, dt: float, plane: str = "stress") -> dict:
     gm = load_ground_motion(sc)
     n = int(round(duration / dt))
     ag = np.interp(dt * np.arange(n + 1), gm.t, gm.ax)
-    s = NewmarkSolver(md.K, md.M, C, md.interface.B, md.interface.w, law, dt=dt)
+    s = JointSolver(md.K, md.M, C, md.interface.B, md.interface.w, law, dt=dt)
     Mr = md.M @ md.r_x
     s.set_initial(np.zeros(md.nfree), np.zeros(md.nfree))
     s.initial_acceleration(-Mr * ag[0])
@@ -169,7 +169,7 @@ def main(fast: bool = False, outdir=None) -> dict:
          f"Mesh h = {r['h']:g} m ({r['nfree']} free DOFs, P1, plane {r['plane']}), record "
          f"{RECORD} for {r['duration']:g} s at dt = {r['dt']:g} s, Rayleigh 5 % at modes 1 "
          "and 3 (each code from its own eigenvalues), Newmark average acceleration.", "",
-         "| quantity | ours (NGSolve + NewmarkSolver) | scikit-fem (own K, M, Newmark) | "
+         "| quantity | ours (NGSolve + JointSolver) | scikit-fem (own K, M, Newmark) | "
          "difference |", "|---|---|---|---|",
          f"| f1, f2, f3 [Hz] | {', '.join(f'{f:.5f}' for f in r['f_ours_hz'])} | "
          f"{', '.join(f'{f:.5f}' for f in r['f_skfem_hz'])} | "

@@ -8,7 +8,7 @@
    the observed order should be 2.
 
 The interface law is made to stay linear (peak strength far above any traction reached, the same
-initial stiffness as the paper's law), so the NewmarkSolver's condensed path is exercised with no
+initial stiffness as the paper's law), so the JointSolver's condensed path is exercised with no
 active point and the result is the linear one.
 """
 from __future__ import annotations
@@ -38,8 +38,8 @@ def build(fast: bool):
 
 def free_vibration(model, law, n_steps, dt):
     """Undamped, unloaded motion from the static deflection under the water load."""
-    from ngs_driver.solve.newmark import NewmarkSolver
-    s = NewmarkSolver(model.K, model.M, None, model.interface.B, model.interface.w, law, dt=dt)
+    from ngs_driver.solve.joint_solver import JointSolver
+    s = JointSolver(model.K, model.M, None, model.interface.B, model.interface.w, law, dt=dt)
     s.static(model.f_water)
     f0 = np.zeros(model.nfree)
     s.f = f0
@@ -55,8 +55,8 @@ def free_vibration(model, law, n_steps, dt):
 
 def forced(model, law, dt, duration, C, gm):
     """Crest u_x history (at the times of gm.t) under the record, starting at rest."""
-    from ngs_driver.solve.newmark import NewmarkSolver
-    s = NewmarkSolver(model.K, model.M, C, model.interface.B, model.interface.w, law, dt=dt)
+    from ngs_driver.solve.joint_solver import JointSolver
+    s = JointSolver(model.K, model.M, C, model.interface.B, model.interface.w, law, dt=dt)
     Mrx, Mry = model.M @ model.r_x, model.M @ model.r_y
     n = int(round(duration / dt))
     t = np.arange(n + 1) * dt

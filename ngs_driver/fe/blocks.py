@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["block_rigid_modes"]
+__all__ = ["block_rigid_modes", "linear_fields"]
 
 
 def block_rigid_modes(model) -> tuple[np.ndarray, np.ndarray]:
@@ -36,3 +36,25 @@ def block_rigid_modes(model) -> tuple[np.ndarray, np.ndarray]:
             comp.Set(cf)
             cols.append(np.array(gf.vec.FV().NumPy(), copy=True)[model.free])
     return np.column_stack(cols), np.array(cents, dtype=np.float64)
+
+
+def linear_fields(model, regions) -> dict:
+    """Free-DOF vectors of the linear fields u = (1, 0), (0, 1), (x, 0), (0, y), (y, 0) and
+    (0, x) on the dam blocks ``regions`` and 0 elsewhere, keyed "Tx", "Ty", "Xx", "Yy", "Yx",
+    "Xy" (the first letter the field, the second the component): every rigid motion and the
+    lever arms of a load about any point are combinations of them (interpolation of a linear
+    field is exact)."""
+    import ngsolve as ngs
+
+    x, y = ngs.x, ngs.y
+    cfs = {"Tx": (1.0, 0.0), "Ty": (0.0, 1.0), "Xx": (x, 0.0), "Yy": (0.0, y),
+           "Yx": (y, 0.0), "Xy": (0.0, x)}
+    out = {}
+    for key, (a, b) in cfs.items():
+        gf = ngs.GridFunction(model.fes)
+        for reg in regions:
+            k = list(model.regions).index(reg)
+            comp = gf if len(model.regions) == 1 else gf.components[k]
+            comp.Set(ngs.CF((a, b)))
+        out[key] = np.array(gf.vec.FV().NumPy(), copy=True)[model.free]
+    return out

@@ -22,7 +22,9 @@ def format_summary(s: dict) -> str:
             f"{stop['reason']})" if stop.get("step") is not None else f"{s['n_steps']} steps")
     lines = [
         f"[{s['scene']['name']}] done: {done}; record {s['label']}"
-        + (f"; verdict: {s['verdict']}" if s.get("verdict") else ""),
+        + (f"; verdict: {s['verdict']}" if s.get("verdict") else "")
+        + (f" ({s['collapse']['mode']}, joint {s['collapse']['joint']!r}, t = "
+           f"{s['collapse']['time']:.4g} s)" if (s.get("collapse") or {}).get("mode") else ""),
         f"  Eq. 11: t1 = {ch['t1']:.3e} s, t2 = {ch['t2']:.3e} s (c_L = {ch['c_L']:.0f} m/s)",
         "  frequencies [Hz]: " + " ".join(f"{f:.3f}" for f in s["frequencies_hz"]),
         f"  max D at heel {r.get('max_D_heel', 0):.4g} (D=1 at t = "

@@ -11,7 +11,7 @@
 written, resolves it (``setup.resolve``: the run's typed inputs; below ``setup`` nothing reads
 the scene), builds the model (``fe.model.build_from_inputs``: the section, its lift joints, the
 foundation), one interface law per joint with its size-scale state (``run.joints``), Rayleigh
-damping from the modal analysis (``run.damping``) and the condensed ``NewmarkSolver`` (all
+damping from the modal analysis (``run.damping``) and the condensed ``JointSolver`` (all
 joints in one gap vector). The static state (dead load + reservoir + tailwater + uplift) is
 solved with the interface laws and committed; then the ground motion enters as the effective
 load
@@ -51,7 +51,8 @@ from ..setup import FORMULATION, model_inputs, resolve, validate
 from ..solve.integrator import Integrator
 from ..solve.joint_laws import initial_stiffness
 from ..solve.massless import initial_acceleration, massless_dofs
-from ..solve.newmark import NewmarkSolver, SolverError
+from ..solve.joint_solver import JointSolver
+from ..solve.stepping import SolverError
 from . import summary as sm
 from .checkpoint import (Checkpointer, CheckpointStep, SolverPart, format_error,
                          resume_difference)
@@ -69,6 +70,7 @@ from .parts import StepContext, join_checkpoint, split_checkpoint
 from .post_earthquake import PostEarthquakeCheck
 from .progress import OutputsStep, Progress
 from .reservoir import ReservoirRun
+from .rotation import FiniteRotation
 from .safety import FS_DEFINITION, SlidingSafety
 from .screening import Screening
 from .statics import solve_pre_earthquake
@@ -87,17 +89,18 @@ def seismic_load(f_static, Mrx, Mry, ax, ay):
     return f
 
 
-def make_solver(inputs, model, C, law, C_lowrank=None):
-    """The condensed solver of the scene's [time] (integrator) and [solver] keys (``inputs``:
-    the run's ``setup.RunInputs``); C_lowrank: the low-rank part of the damping
-    (``run.damping.low_rank_damping``)."""
+def make_solver(inputs, model, C, law, C_lowrank=None, coupled=None):
+    """The joint solver of the scene's [time] (integrator) and [solver] keys (``inputs``: the
+    run's ``setup.RunInputs``); C_lowrank: the low-rank part of the damping
+    (``run.damping.low_rank_damping``); coupled: the reservoir's water (solve/coupled.py) or
+    None."""
     ts, sv = inputs.time, inputs.solver
     integrator = Integrator.make(ts.integrator, rho_inf=ts.rho_inf, beta=ts.newmark_beta,
                                  gamma=ts.newmark_gamma)
-    return NewmarkSolver(model.K, model.M, C, model.interface.B, model.interface.w, law,
-                         dt=ts.dt, integrator=integrator, C_lowrank=C_lowrank,
-                         tol_residual=sv.tol_residual, max_iter=sv.max_iter,
-                         stall_iterations=sv.stall_iterations, min_dt=sv.min_dt)
+    return JointSolver(model.K, model.M, C, model.interface.B, model.interface.w, law,
+                       dt=ts.dt, integrator=integrator, C_lowrank=C_lowrank,
+                       tol_residual=sv.tol_residual, max_iter=sv.max_iter,
+                       stall_iterations=sv.stall_iterations, min_dt=sv.min_dt, coupled=coupled)
 
 
 def _restart(out, ckp, scene_d):
@@ -156,7 +159,7 @@ class Analysis:
         self._t_loop = None
         self._wall_before = 0.0
         f_tail = self._build_joints(inp, model, gm)
-        C = self._build_solver(inp, model)
+        C = self._build_damping(inp, model)
         self._build_loads(inp, model, gm, C, f_tail)
         self._build_parts(inp, model, progress, checkpoints)
         if progress:
@@ -186,9 +189,9 @@ class Analysis:
         self.reference = sm.reference_parameters(inp.g_max, joints)
         return tailwater_load(model, inp.tailwater, inp.water_density, inp.gravity)
 
-    def _build_solver(self, inp, model):
-        """The modal analysis with the joints bonded, the damping and the condensed solver
-        (joints that start cracked start with no cohesion); returns the damping matrix C."""
+    def _build_damping(self, inp, model):
+        """The modal analysis with the joints bonded and the damping; returns the damping
+        matrix C."""
         joints, iface = self.joints, model.interface
         t = time.perf_counter()
         k0p = initial_stiffness(joints.solver_law(), iface.npts)    # each joint its own k0
@@ -199,19 +202,27 @@ class Analysis:
         self.timings["modal"] = time.perf_counter() - t
         C = damping_matrix(model, self.damping, self.absorbing)
         self.low_damping = low_rank_damping(model, joints, self.damping)
-        self.solver = solver = make_solver(inp, model, C, joints.solver_law(),
-                                           self.low_damping)
+        return C
+
+    def _build_solver(self, inp, model, C):
+        """The joint solver, with the reservoir's water as its coupled field (solve/coupled.py;
+        the reservoir is built first), joints that start cracked with no cohesion."""
+        joints = self.joints
+        self.solver = solver = make_solver(
+            inp, model, C, joints.solver_law(), self.low_damping,
+            coupled=None if self.reservoir is None else self.reservoir.field)
+        if self.reservoir is not None:
+            self.reservoir.solver = solver
         cracked = joints.cracked_points()
         if cracked.any():                # joints that start cracked: no cohesion
             st0 = solver.state.copy()
             st0.kappa[cracked] = 1.0
             solver.set_state(st0)
-        return C
 
     def _build_loads(self, inp, model, gm, C, f_tail):
-        """The record on the time grid, the reservoir, the loads, the energy budget and guard
-        (C: the damping matrix; f_tail: the tailwater's load or None)."""
-        ts, solver, joints = inp.time, self.solver, self.joints
+        """The record on the time grid, the reservoir, the solver, the loads, the energy budget
+        and guard (C: the damping matrix; f_tail: the tailwater's load or None)."""
+        ts, joints = inp.time, self.joints
         self.n_steps = int(round(ts.duration / ts.dt))
         self.times = ts.dt * np.arange(self.n_steps + 1)
         self.ax, self.ay = gm.at(inp.record_start + self.times)
@@ -219,8 +230,9 @@ class Analysis:
         self.reservoir = None
         if getattr(model, "reservoir", None) is not None:   # hydrodynamics (fe/reservoir.py)
             Mrx, Mry = model.reservoir.seismic_vectors(Mrx, Mry)
-            self.reservoir = ReservoirRun.create(model, solver, self.times, self.ax, self.ay,
+            self.reservoir = ReservoirRun.create(model, self.times, self.ax, self.ay,
                                                  total=self.absorbing is not None)
+        self._build_solver(inp, model, C)
         self.f_base = model.f_gravity + model.f_water + (np.zeros(model.nfree)
                                                          if f_tail is None else f_tail)
         if self.absorbing is not None:       # total displacements: the record enters as
@@ -259,13 +271,17 @@ class Analysis:
         self.snapshots = Snapshots(self.n_steps, inp.output.snapshots)
         self._history = StepHistory(self.history_keys, model.crest_dofs)
         self.heel_opening = HeelOpening(joints.slices[0])
-        self.stop_rule = CollapseRule(model, joints, ts.max_slip, ts.max_rotation)
+        # finite rotations of the blocks (run/rotation.py; None: the small-rotation kinematics)
+        self.rotation = (FiniteRotation(model, joints, solver, self.Mrx, self.Mry, self.energy)
+                         if inp.solver.kinematics == "finite_rotation" else None)
+        self.stop_rule = CollapseRule(model, joints, ts.max_slip, ts.max_rotation,
+                                      inp.solver.kinematics)
         self.progress_bar = Progress(progress, self.n_steps, inp.label, self._history)
         self.parts = [p for p in (
             self.solver_part, self.uplift, self.screening, self.reservoir, joints, self.safety,
             self.energy, self._history, self.guard, self.size_scale, self.pairing,
             self.snapshots, OutputsStep(self), self.progress_bar, self.heel_opening,
-            self.stop_rule, CheckpointStep(checkpoints, self._checkpoint, solver))
+            self.rotation, self.stop_rule, CheckpointStep(checkpoints, self._checkpoint, solver))
             if p is not None]
 
     @property

@@ -14,8 +14,6 @@ import zlib
 
 import numpy as np
 
-from interfacelaw import InterfaceState
-
 from .parts import Part
 from .store import atomic_write_bytes, atomic_write_text, json_text, npz_bytes
 
@@ -26,22 +24,22 @@ CHECKPOINT_FORMAT = 2
 
 # The calls into the solver's own save and restore (and its coupled water's) are here and
 # nowhere else in run/: the solve stage's names for them may change in one place.
-def _solver_internals(solver) -> dict:
-    return solver.checkpoint_state()
+def _solver_checkpoint(solver) -> dict:
+    return solver.checkpoint(coupled=False)
 
 
-def _restore_solver_internals(solver, d) -> None:
-    solver.restore_state(d)
+def _restore_solver(solver, d) -> None:
+    solver.restore(d)
 
 
 def _water(solver):
-    """The solver's coupled water with a state of its own (compressible acoustic), or None."""
-    ext = getattr(solver, "ext", None)
-    return ext if hasattr(ext, "state") and hasattr(ext, "restore") else None
+    """The solver's coupled water (``solve.coupled.CoupledField``), or None; only the
+    compressible acoustic water has a state of its own (the others' checkpoint is empty)."""
+    return getattr(solver, "coupled", None)
 
 
 def _water_state(water) -> dict:
-    return water.state()
+    return water.checkpoint()
 
 
 def _restore_water(water, d) -> None:
@@ -65,12 +63,7 @@ class SolverPart(Part):
 
     def checkpoint(self) -> dict:
         s = self.solver
-        d = {"u": s.u.copy(), "v": s.v.copy(), "a": s.a.copy(), "time": float(s.time)}
-        if s.f is not None:
-            d["f"] = s.f.copy()
-        d.update({f"internal.{k}": np.array(v, copy=True)
-                  for k, v in _solver_internals(s).items()})
-        d.update({f"state.{k}": np.array(v, copy=True) for k, v in s.state.as_dict().items()})
+        d = _solver_checkpoint(s)       # copies: u, v, a, f, time, the internals, state_*
         water = _water(s)
         if water is not None:
             d.update({f"water.{k}": None if v is None else np.array(v, copy=True)
@@ -78,15 +71,10 @@ class SolverPart(Part):
         return d
 
     def restore(self, d: dict) -> None:
-        """The solver as ``checkpoint()`` found it (copies: ``d`` stays valid)."""
+        """The solver as ``checkpoint()`` found it (copies: ``d`` stays valid). The gap
+        offset is not set here: the pairing's and the rotation's parts restore it."""
         s = self.solver
-        s.u, s.v, s.a = (np.array(d[k], dtype=float) for k in "uva")
-        s.f = np.array(d["f"], dtype=float) if d.get("f") is not None else None
-        s.time = float(d["time"])
-        _restore_solver_internals(s, {k[9:]: v for k, v in d.items()
-                                      if k.startswith("internal.")})
-        s.state = InterfaceState.from_dict({k[6:]: v for k, v in d.items()
-                                            if k.startswith("state.")})
+        _restore_solver(s, {k: v for k, v in d.items() if not k.startswith("water.")})
         water = {k[6:]: v for k, v in d.items() if k.startswith("water.")}
         if water:
             _restore_water(_water(s), water)

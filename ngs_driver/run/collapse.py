@@ -2,40 +2,54 @@
 reasons: docs/run.md §4 (written there once).
 
 A collapse is unbounded sliding (a joint cracked over its whole length slides faster than
-``SLIDING_RATE`` and FS_static = f max(N_s, 0) / |T_s| < 1 on the blocks above it) or sliding
-off (a lift joint's mean slip reaches its length); |rotation| > ``time.max_rotation`` (at most
-``MAX_ROTATION_SUPPORTED``) or |slip| > ``time.max_slip`` is the verdict undetermined.
-``CollapseRule.check`` returns None or the stop entry: joint, time, step, reason, the measure
-that triggered it and ``verdict`` ("collapse" or "undetermined"; "range" for the latter).
+``SLIDING_RATE`` and FS_static = f max(N_s, 0) / |T_s| < 1 on the blocks above it), sliding
+off (a lift joint's mean slip reaches its length) or, with ``solver.kinematics =
+"finite_rotation"``, toppling (run/rotation.py, a part of its own listed before this rule);
+each collapse entry names its ``mode`` (``COLLAPSE_MODES``). |rotation| >
+``time.max_rotation`` (at most ``MAX_ROTATION_SUPPORTED`` with the small-rotation kinematics,
+``MAX_ROTATION_FINITE`` with the finite-rotation ones) or |slip| > ``time.max_slip`` is the
+verdict undetermined. ``CollapseRule.check`` returns None or the stop entry: joint, time,
+step, reason, the measure that triggered it and ``verdict`` ("collapse" or "undetermined";
+"range" for the latter).
 """
 from __future__ import annotations
 
 import numpy as np
 
 from ..fe.pairing import upper_columns
+from ..scene import MAX_ROTATION_FINITE, MAX_ROTATION_SUPPORTED
 from .parts import Part
 
-__all__ = ["CollapseRule", "SLIDING_RATE", "MAX_ROTATION_SUPPORTED", "VERDICTS"]
+__all__ = ["CollapseRule", "SLIDING_RATE", "MAX_ROTATION_SUPPORTED", "MAX_ROTATION_FINITE",
+           "VERDICTS", "COLLAPSE_MODES"]
 
 SLIDING_RATE = 1e-3     # m/s: a joint whose mean slip changes faster than this is sliding
-# the largest time.max_rotation the small-rotation kinematics support (scene.py checks it):
-# a rigid rotation theta of the linearised kinematics stretches the block by theta^2 / 2,
-# 5e-3 at 0.1 rad (~150 MPa of spurious stress at E = 31 GPa, 50 x concrete's tensile
-# strength); docs/solver.md §11
-MAX_ROTATION_SUPPORTED = 0.1
+# the bounds of time.max_rotation (scene.py checks them, docs/solver.md §11): the
+# small-rotation kinematics' MAX_ROTATION_SUPPORTED (a rigid rotation theta of the linearised
+# kinematics stretches the block by theta^2 / 2, 5e-3 at 0.1 rad: ~150 MPa of spurious stress
+# at E = 31 GPa, 50 x concrete's tensile strength) and the finite-rotation kinematics'
+# MAX_ROTATION_FINITE
 # summary.json "verdict": the record's end reached, a physical collapse, or the model's range
 # left (kinematic limits): nothing can be said about the dam past it
 VERDICTS = ("no_collapse", "collapse", "undetermined")
+# a collapse entry's "mode": the block above the joint toppled (run/rotation.py, the
+# finite-rotation kinematics), slid off the face below, or slides with friction unable to
+# hold the static loads of its cracked state
+COLLAPSE_MODES = ("toppling", "sliding off", "friction unable to hold the static loads")
 
 
 class CollapseRule(Part):
     """The collapse rule as a run part (``run.parts``): after each step it sets the step's
-    ``stop`` when a joint collapsed or left the model's range."""
+    ``stop`` when a joint collapsed or left the model's range (when no part set one before:
+    the finite rotations' toppling)."""
 
     name = "collapse"
+    kinematics = "small"          # solver.kinematics: names the range left by a rotation
 
-    def __init__(self, model, joints, max_slip: float, max_rotation: float):
+    def __init__(self, model, joints, max_slip: float, max_rotation: float,
+                 kinematics: str = "small"):
         self.joints = joints
+        self.kinematics = kinematics
         self.names = list(joints.names)
         self.max_slip, self.max_rotation = float(max_slip), float(max_rotation)
         blocks = [r for r in model.regions if r != "rock"]
@@ -74,20 +88,22 @@ class CollapseRule(Part):
         slip = np.array([measures[f"{n}_slip"] for n in self.names])
         rot = np.array([measures[f"{n}_rotation"] for n in self.names])
         prev, self._prev = self._prev, slip
+        kin = "small-rotation" if self.kinematics == "small" else "finite-rotation"
         for i, n in enumerate(self.names):
             if i > 0 and abs(slip[i]) >= self.lengths[i]:
                 return {"joint": n, "time": float(t), "step": int(k), "verdict": "collapse",
+                        "mode": "sliding off",
                         "reason": f"the block above joint {n!r} slid off: its slip "
                                   f"{slip[i]:.4g} m reached the joint's length "
                                   f"{self.lengths[i]:.4g} m (sliding off)",
                         "measure": "slip", "value": float(slip[i])}
             if abs(rot[i]) > self.max_rotation:
                 return {"joint": n, "time": float(t), "step": int(k), "verdict": "undetermined",
-                        "range": f"small-rotation kinematics: |rotation| <= time.max_rotation "
+                        "range": f"{kin} kinematics: |rotation| <= time.max_rotation "
                                  f"= {self.max_rotation:g} rad (docs/solver.md §11)",
                         "reason": f"the rotation of the block above joint {n!r}, "
                                   f"{rot[i]:.4g} rad, left the model's range (time.max_rotation "
-                                  f"= {self.max_rotation:g} rad, the small-rotation kinematics): "
+                                  f"= {self.max_rotation:g} rad, the {kin} kinematics): "
                                   f"the verdict past it is undetermined, not a collapse",
                         "measure": "rotation", "value": float(rot[i])}
             if abs(slip[i]) > self.max_slip:
@@ -111,6 +127,7 @@ class CollapseRule(Part):
         for i, n in enumerate(self.names):
             if sliding[i] and cracked[i] and fs[i] < 1.0:
                 return {"joint": n, "time": float(t), "step": int(k), "verdict": "collapse",
+                        "mode": "friction unable to hold the static loads",
                         "reason": f"joint {n!r} is cracked over its length and slides "
                                   f"({rate[i]:+.3g} m/s), and friction alone cannot hold the "
                                   f"static loads of its cracked state: FS_static = "

@@ -232,7 +232,7 @@ class EnergyBudget(Part):
     def step(self, u, v, f, t, g, state, scan=None, products=None) -> dict:
         """Book the step to the committed (u, v, f, t, g, state); scan: the ``JointScan`` of
         (state, g, t) if the caller has it; products: (K u, M v) of this state if the caller
-        has them, bitwise those of the budget's K and M (``NewmarkSolver.step_products`` of
+        has them, bitwise those of the budget's K and M (``JointSolver.step_products`` of
         the solver built on the same K and M)."""
         u0, v0, f0 = self._prev                 # updated in place to u, v, f by the kernel
         Mv0, Ku0 = self._prods
@@ -362,7 +362,7 @@ class EnergyGuard(Part):
 
     scale = max(static strain energy 1/2 u.f of the static state, the largest |W_ext| +
     |W_water| so far). The run then repeats it from the committed state in 2, 4, ... uniform
-    sub-steps (``NewmarkSolver.step(split=k)``) and stops with an error after GUARD_SPLITS
+    sub-steps (``JointSolver.step(split=k)``) and stops with an error after GUARD_SPLITS
     halvings: such a step is never accepted. The cost: a few scalar differences per step
     (the budget is formed anyway), and a copy of the committed state
     (``run.checkpoint.SolverPart``).

@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..solve.newmark import SolverError
+from ..solve.stepping import SolverError
 from .checkpoint import SolverPart
 from .safety import FS_CAP, FS_CRITERION
 from .statics import spring_supported

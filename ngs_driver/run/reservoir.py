@@ -1,11 +1,13 @@
-"""The reservoir during a run: the fluid stepper attached to the solver, the hydrodynamic
+"""The reservoir during a run: the fluid stepper coupled to the solver, the hydrodynamic
 pressure on the upstream face sampled after every step, and their checkpoints. The files are
 written by ``post.reservoir``.
 
-``ReservoirRun.create(model, solver, times, ax, ay, total)`` returns None when the model has no
-hydrodynamic reservoir.  For compressible acoustic water it attaches the ``FluidStepper``
-(solve/fluid.py) to the solver: the pressure then lives in the solver's steps; for
-incompressible water and Westergaard the pressure is recovered from the accelerations.
+``ReservoirRun.create(model, times, ax, ay, total)`` returns None when the model has no
+hydrodynamic reservoir.  For compressible acoustic water it builds the ``FluidStepper``
+(solve/fluid.py), the coupled field (``field``) that the run gives to the solver's constructor:
+the pressure then lives in the solver's steps; for incompressible water and Westergaard the
+pressure is recovered from the accelerations. The run sets ``solver`` once the solver is
+built.
 """
 from __future__ import annotations
 
@@ -27,12 +29,14 @@ class ReservoirRun(Part):
 
     name = "reservoir"
 
-    def __init__(self, model, solver, times, ax, ay, total: bool):
-        self.model, self.solver = model, solver
+    def __init__(self, model, times, ax, ay, total: bool):
+        self.model = model
+        self.solver = None                       # set by the run once the solver is built
         self.res = model.reservoir
         self.times, self.ax, self.ay = times, ax, ay
         self.rows = {"t": [], "Fx": [], "Fy": []}
         self.stepper = None
+        self.field = None                        # the coupled field given to the solver
         self.ac = self.res.acoustic
         self.level = self.res.level
         self.ys = [f * self.level for f in FRACTIONS]
@@ -47,19 +51,19 @@ class ReservoirRun(Part):
             self.g = ((self.ac.W.b_x, self.ac.W.b_y) if self.total
                       else (self.ac.g_x, self.ac.g_y))
         if self.ac is not None and not self.ac.incompressible:
-            self.stepper = FluidStepper(self.ac, solver, self.ground, self.g)
+            self.stepper = self.field = FluidStepper(self.ac, self.ground, self.g)
         elif self.ac is not None and self.total:
-            GroundPressureLoad(self.ac, solver, self.ground)
+            self.field = GroundPressureLoad(self.ac, self.ground)
         self._pts = self.ac.face_stations(FRACTIONS) if self.ac is not None else None
         self._mips = None
         self._probe = None
 
     @classmethod
-    def create(cls, model, solver, times, ax, ay, total: bool):
+    def create(cls, model, times, ax, ay, total: bool):
         """None when the model has no hydrodynamic reservoir."""
         if getattr(model, "reservoir", None) is None:
             return None
-        return cls(model, solver, times, ax, ay, total)
+        return cls(model, times, ax, ay, total)
 
     def after_step(self, ctx):
         self.sample(ctx.k, ctx.t)

@@ -153,7 +153,7 @@ class Uplift(Part):
 
     def step(self, solver, f_k, split: int = 0):
         """One time step; f_k already holds the static uplift. Returns (report, load used).
-        split: sub-steps of at most dt / 2^split (``NewmarkSolver.step``)."""
+        split: sub-steps of at most dt / 2^split (``JointSolver.step``)."""
         if not self.state_dependent:
             return solver.step(f_k, split), f_k
         f_base = f_k - self.field.load(self.p_static)

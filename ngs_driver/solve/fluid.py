@@ -1,7 +1,8 @@
-"""Compressible water in the condensed Newmark solver: the pressure is eliminated exactly inside
-every step (docs/reservoir.md §4).
+"""Compressible water in the joint solver: the pressure is eliminated exactly inside every step
+(docs/reservoir.md §4). Both classes here are coupled fields (solve/coupled.py
+``CoupledField``), given to ``JointSolver(..., coupled=...)``.
 
-For a step of size h (coefficients c0..c5 of ``NewmarkSolver.coefficients``) the fluid rows of
+For a step of size h (coefficients c0..c5 of ``JointSolver.coefficients``) the fluid rows of
 the coupled u-p system (fe/acoustic.py) read
 
     A_pp p_{n+1} = b_p - c0 rho Q^T u_{n+1},     A_pp = c0 G + c1 C_f + H,
@@ -30,13 +31,14 @@ from .sparse import SparseFactor
 
 
 class FluidStepper:
-    """Hooks ``NewmarkSolver`` calls when ``solver.ext`` is set: ``matrix(h)``, ``rhs(h)``,
-    ``commit(h)``.  ground(t) -> (a_gx, a_gy) at time t (linear between record samples, as the
-    solver interpolates its loads)."""
+    """The compressible water as a coupled field (solve/coupled.py): ``matrix(h)``, ``rhs(h)``,
+    ``commit(h)``, ``checkpoint()``, ``restore(d)``; the solver binds itself at construction.
+    ground(t) -> (a_gx, a_gy) at time t (linear between record samples, as the solver
+    interpolates its loads)."""
 
-    def __init__(self, acoustic, solver, ground, g=None):
+    def __init__(self, acoustic, ground, g=None):
         self.ac = acoustic
-        self.solver = solver
+        self.solver = None                            # the solver that binds this field
         self.ground = ground
         # ground forcing of the fluid rows per unit a_g: (Q^T r + b) in the relative
         # formulation, b alone when u is total (absorbing rock boundaries)
@@ -64,7 +66,10 @@ class FluidStepper:
         self._alg = 0.0
         Cf_far = getattr(W, "Cf_far", None)
         self._Cfar = Cf_far if Cf_far is not None else sp.csr_matrix(W.Cf.shape)
-        solver.ext = self
+
+    def bind(self, solver):
+        """Called once by the solver's constructor (solve/coupled.py)."""
+        self.solver = solver
 
     # -- per step size ------------------------------------------------------------------------
     def _entry(self, h):
@@ -217,7 +222,7 @@ class FluidStepper:
         0.01 s: |R| up to 9e-4 against |H pi| 2.2, zero to 1e-10 with Newmark), and the
         identity gains the term dpi.(R_0 + R_1)/2 rho -- work the scheme, not the ground nor
         the dam, does on the water. It is booked as E_water_alg = -sum dpi.(R_0 + R_1)/2 rho
-        (the water's share of the integrator's exchange; docs/solver.md §9.1)."""
+        (the water's share of the integrator's exchange; docs/run.md §9.1)."""
         s = self.solver
         if self._c0 is None:                  # a resumed run without the start state
             self._c0 = np.zeros_like(p0)
@@ -250,8 +255,11 @@ class FluidStepper:
                 "E_water_absorbed": float(self._acc[1]),
                 "E_water_alg": float(self._alg)}
 
-    def state(self) -> dict:
-        return {"p": self.p, "pd": self.pd, "pdd": self.pdd, "pi": self.pi,
+    def checkpoint(self) -> dict:
+        """Copies of the water's state: p, p', p'' (None: at rest, before the first step), the
+        integrated pressure pi and the energy accumulators."""
+        return {"p": self.p.copy(), "pd": self.pd.copy(),
+                "pdd": None if self.pdd is None else self.pdd.copy(), "pi": self.pi.copy(),
                 "energy": np.concatenate([self._V, self._acc,
                                           self._c0 if self._c0 is not None
                                           else np.zeros_like(self.p)]),
@@ -259,8 +267,19 @@ class FluidStepper:
                 "energy_drift": (np.array(self._R, dtype=float) if self._R is not None
                                  else np.zeros(0))}
 
+    @property
+    def drift(self):
+        """The drift R of the once-integrated fluid rows as followed step by step (None until
+        the first step forms it; ``recomputed_drift`` forms it from the state)."""
+        return self._R
+
+    def recomputed_drift(self) -> np.ndarray:
+        """R formed afresh from the committed state (``_drift``): equal to ``drift`` to the
+        Newton tolerance (tests/test_water_alpha_energy.py)."""
+        return self._drift()
+
     def restore(self, d):
-        """The state ``state()`` returned (a checkpoint), energy accumulators included."""
+        """The state ``checkpoint()`` returned, energy accumulators included."""
         self.p, self.pd = (np.array(d[k], dtype=float) for k in ("p", "pd"))
         self.pdd = None if d["pdd"] is None else np.array(d["pdd"], dtype=float)  # None: at rest
         if "energy" in d:
@@ -280,14 +299,18 @@ class GroundPressureLoad:
     the pressure driven by the bottom / a rigid far end, -rho Q H^-1 b a_g(t), as a load in the
     step's right-hand side (the face part is the added mass acting on the total acceleration)."""
 
-    def __init__(self, acoustic, solver, ground):
+    def __init__(self, acoustic, ground):
         self.ground = ground
-        self.solver = solver
+        self.solver = None                            # the solver that binds this field
         W = acoustic.W
         self.vx = -acoustic.rho * (acoustic.Q @ acoustic.solve_H(W.b_x))
         self.vy = -acoustic.rho * (acoustic.Q @ acoustic.solve_H(W.b_y))
+        self._zero = None
+
+    def bind(self, solver):
+        """Called once by the solver's constructor (solve/coupled.py)."""
+        self.solver = solver
         self._zero = sp.csr_matrix((solver.ndof, solver.ndof))
-        solver.ext = self
 
     def matrix(self, h):
         return self._zero
@@ -305,5 +328,9 @@ class GroundPressureLoad:
     def commit(self, h):
         pass
 
-    def state(self) -> dict:
+    def checkpoint(self) -> dict:
+        """No state of its own (the load follows the record)."""
         return {}
+
+    def restore(self, d):
+        pass

@@ -28,7 +28,12 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-__all__ = ["Integrator", "INTEGRATORS"]
+import numpy as np
+
+from .kernels import newmark_update, rhs_combine, rhs_fused, rhs_vectors
+from .products import FusedPair, pair_products, step_products5
+
+__all__ = ["Integrator", "INTEGRATORS", "TimeDiscretisation"]
 
 INTEGRATORS = ("newmark", "hht", "generalized-alpha")
 
@@ -89,3 +94,180 @@ class Integrator:
     def describe(self) -> dict:
         return {"name": self.name, "beta": self.beta, "gamma": self.gamma,
                 "alpha_f": self.alpha_f, "alpha_m": self.alpha_m, "rho_inf": self.rho_inf}
+
+
+class TimeDiscretisation:
+    """The integrator applied to the structure's matrices: everything of a step that is not the
+    joints' Newton -- the effective matrix, the right-hand side (the predictor's terms of the
+    committed state), the update of v and a at a commit, and the committed state's products
+    for the energy budget. One place for the family's algebra (``JointSolver`` holds one).
+
+    K, M : scipy CSR (ndof, ndof); C : CSR or None (no damping); lowrank : None or the dense
+    low-rank part of the damping, C = C + a0 U W U^T (solve/damping.py, ``product(y)``).
+    The committed state ``cs`` passed to the methods has u, v, a, f and t (solve/committed.py);
+    its arrays are replaced at a commit, never modified in place, which is what lets the
+    products formed for the energy budget be reused by the next right-hand side (``rhs``)."""
+
+    def __init__(self, integrator: Integrator, K, M, C, lowrank=None):
+        self.integrator = integrator
+        self.K, self.M, self.C = K, M, C
+        self.lowrank = lowrank
+        self.alpha_hht = -integrator.alpha_f          # Hilber et al.'s sign convention
+        self.alpha_m = integrator.alpha_m
+        self.gamma = integrator.gamma
+        self.ndof = K.shape[0]
+        # M x and C y of the right-hand side in one compiled pass (bitwise scipy's products);
+        # K on the same pattern for ``step_products`` (the energy budget's K u, M v)
+        self.fused = FusedPair(M, C, K) if C is not None else None
+        self._work = None
+        self._next = None            # (h, u, v, a, M x, C y[, K u, C v]) of step_products
+
+    def coefficients(self, h):
+        return self.integrator.coefficients(h)
+
+    def damping_product(self, y):
+        """C y, with the low-rank part of C when there is one."""
+        out = self.C @ y
+        if self.lowrank is not None:
+            out += self.lowrank.product(y)
+        return out
+
+    def matrix(self, h, coupled=None):
+        """c0 (1 - alpha_m) M + c (K + c1 C) (+ the coupled field's block ``coupled``, a sparse
+        matrix or None) for step size h, c = 1 + alpha_hht; None -> static K."""
+        if h is None:
+            return self.K
+        c0, c1 = self.coefficients(h)[:2]
+        c = 1.0 + self.alpha_hht
+        A = (c0 * (1.0 - self.alpha_m) if self.alpha_m else c0) * self.M + c * self.K
+        if self.C is not None:
+            A = A + (c * c1) * self.C
+        if coupled is not None:
+            A = A + coupled
+        return A.tocsr()
+
+    def forget_products(self):
+        """Drop the products kept by ``step_products`` (the next ``rhs`` forms its own)."""
+        self._next = None
+
+    @property
+    def products_kept(self) -> bool:
+        """True while products formed by ``step_products`` wait for the next ``rhs``."""
+        return self._next is not None
+
+    def _buffers(self):
+        if self._work is None:
+            self._work = np.empty((4, self.ndof))
+        return self._work
+
+    def rhs(self, h, cs, f_next, internal_force, fused: bool = True):
+        """Effective right-hand side of the step of size h from the committed state ``cs`` to the
+        load f_next (without the coupled field's share). internal_force(t) = B^T W t.
+        fused=False: the numpy / scipy expressions (the reference the compiled passes equal
+        bit for bit, tests/test_run_loop.py)."""
+        c0, c1, c2, c3, c4, c5 = self.coefficients(h)
+        al = self.alpha_hht
+        c = 1.0 + al
+        mc = self.fused if fused else None
+        u, v, a = cs.u, cs.v, cs.a
+        if mc is not None and al == 0.0 and self.alpha_m == 0.0:
+            rhs = np.empty(self.ndof)
+            f = np.ascontiguousarray(f_next, dtype=np.float64)
+            nx = self._next
+            if (nx is not None and len(nx) == 6 and nx[0] == h and nx[1] is u
+                    and nx[2] is v and nx[3] is a):     # formed by step_products
+                rhs_combine(nx[4], nx[5], c, f, rhs)
+            else:
+                x, y, om, oc = self._buffers()
+                if self.lowrank is None:
+                    rhs_fused(mc.indptr, mc.indices, mc.Ax, mc.Bx, u, v, a,
+                              np.array([c0, c2, c3]), np.array([c1, c4, c5]), c, f, x, y,
+                              om, oc, rhs)
+                else:                             # C y = C_s y + a0 U W U^T y
+                    rhs_vectors(u, v, a, np.array([c0, c2, c3]), np.array([c1, c4, c5]), x, y)
+                    pair_products(mc.indptr, mc.indices, mc.Ax, mc.Bx, x, y, om, oc)
+                    oc += self.lowrank.product(y)
+                    rhs_combine(om, oc, c, f, rhs)
+            return rhs
+        if mc is not None:          # HHT / generalized alpha: the products in one pass
+            nx = self._next
+            if (nx is not None and len(nx) == 8 and nx[0] == h and nx[1] is u
+                    and nx[2] is v and nx[3] is a):      # formed by step_products
+                Mx, Cy, Ku, Cv = nx[4:]
+            else:
+                Ku, _, Mx, Cy, Cv = self.products_alpha(cs, h)
+            af = -al
+            f_n = cs.f if cs.f is not None else f_next
+            r_n = Ku + internal_force(cs.t) + Cv
+            return Mx + c * Cy + (c * f_next + af * f_n) - af * r_n
+        am = self.alpha_m
+        if am == 0.0:
+            rhs = self.M @ (c0 * u + c2 * v + c3 * a)
+        else:       # (1 - am) M a_{n+1} + am M a_n with a_{n+1} = c0 du - c2 v - c3 a
+            rhs = self.M @ ((1.0 - am) * (c0 * u + c2 * v + c3 * a) - am * a)
+        if self.C is not None:
+            rhs += c * self.damping_product(c1 * u + c4 * v + c5 * a)
+        if al != 0.0:
+            f_n = cs.f if cs.f is not None else f_next
+            rhs += c * f_next - al * f_n
+            r_n = self.K @ u + internal_force(cs.t)
+            if self.C is not None:
+                r_n += self.damping_product(v)
+            rhs += al * r_n
+        else:
+            rhs += f_next
+        return rhs
+
+    def rates(self, h, u, cs):
+        """(v, a) at the end of a step of size h that ends at u, from the committed state ``cs``
+        (the Newmark relations; the commit of every member of the family)."""
+        c0, c1, c2, c3, c4, c5 = self.coefficients(h)
+        v_new, a_new = np.empty(self.ndof), np.empty(self.ndof)
+        newmark_update(u, cs.u, cs.v, cs.a, c0, c2, c3, h, 1.0 - self.gamma, self.gamma,
+                       v_new, a_new)
+        return v_new, a_new
+
+    def step_products(self, cs, dt):
+        """(K u, M v) of the committed state, bitwise scipy's ``K @ u`` and ``M @ v`` (the
+        energy budget's products), or None when there is no damping matrix. The same
+        compiled pass (``step_products5``) forms the right-hand-side products of a next step of
+        size dt (M x, C y; with HHT / generalized alpha also K u + C v), which ``rhs`` then
+        takes instead of forming them (kept while u, v, a are the same arrays)."""
+        mc = self.fused
+        if mc is None:
+            return None
+        if not self.integrator.plain:
+            Ku, Mv, Mx, Cy, Cv = self.products_alpha(cs, dt)
+            self._next = (dt, cs.u, cs.v, cs.a, Mx, Cy, Ku, Cv)
+            return Ku, Mv
+        c0, c1, c2, c3, c4, c5 = self.coefficients(dt)
+        x, y = self._buffers()[:2]
+        rhs_vectors(cs.u, cs.v, cs.a, np.array([c0, c2, c3]), np.array([c1, c4, c5]), x, y)
+        Ku, Mv, Mx, Cy, Cv = (np.empty(self.ndof) for _ in range(5))
+        # the generalized-alpha pass; Newmark's right-hand side does not use its C v (one sum
+        # more per row: 0.23 against 0.22 ms on Koyna; the other four bitwise the same)
+        step_products5(mc.indptr, mc.indices, mc.Ax, mc.Bx, mc.Cx, cs.u, cs.v, x, y, Ku,
+                       Mv, Mx, Cy, Cv)
+        if self.lowrank is not None:
+            Cy += self.lowrank.product(y)
+        self._next = (dt, cs.u, cs.v, cs.a, Mx, Cy)
+        return Ku, Mv
+
+    def products_alpha(self, cs, h):
+        """(K u, M v, M x, C y, C v) of the committed state for a step h of HHT / generalized
+        alpha in one compiled pass: x = (1 - am)(c0 u + c2 v + c3 a) - am a (the inertia at the
+        alpha_m point), y = c1 u + c4 v + c5 a; the low-rank damping part added to C y, C v."""
+        mc = self.fused
+        c0, c1, c2, c3, c4, c5 = self.coefficients(h)
+        am = self.alpha_m
+        cm = 1.0 - am
+        x, y = self._buffers()[:2]
+        rhs_vectors(cs.u, cs.v, cs.a, np.array([cm * c0, cm * c2, cm * c3 - am]),
+                    np.array([c1, c4, c5]), x, y)
+        Ku, Mv, Mx, Cy, Cv = (np.empty(self.ndof) for _ in range(5))
+        step_products5(mc.indptr, mc.indices, mc.Ax, mc.Bx, mc.Cx, cs.u, cs.v, x, y, Ku,
+                       Mv, Mx, Cy, Cv)
+        if self.lowrank is not None:
+            Cy += self.lowrank.product(y)
+            Cv += self.lowrank.product(cs.v)
+        return Ku, Mv, Mx, Cy, Cv

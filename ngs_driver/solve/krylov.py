@@ -1,11 +1,12 @@
-"""The r x r interface Newton system of the condensed solver (``NewmarkSolver._jac_solve``):
+"""The r x r interface Newton system of the condensed solver (solve/condensed.py
+``CondensedNewton.jacobian_solve``):
 
     H z = v,     H = Y^-1 + P     (Y^-1 dense symmetric, P sparse CSR; r = 224 on Koyna)
 
 solved by GMRES right-preconditioned with the LU of an earlier H (an earlier iteration or step
 of the same step size), to a true relative residual ``tol``; when that does not happen within
 ``mmax`` iterations the caller factorises H afresh. Why GMRES and not iterative refinement on
-the earlier LU (the second round of issue #15): with the paper's law every point's tangent
+the earlier LU (tried before GMRES; CHANGELOG.md): with the paper's law every point's tangent
 moves at every step, so the earlier LU is a good preconditioner but not a contraction fast
 enough for refinement, which then gave up and factorised in most solves of the strong
 motion; GMRES converges in a few iterations on the same preconditioned operator

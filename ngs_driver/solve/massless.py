@@ -1,6 +1,6 @@
 """The start-up acceleration of a model with massless DOFs (the massless rock block,
 ``geometry.foundation = "massless"``; docs/safety.md), where M is singular and
-``NewmarkSolver.initial_acceleration`` (which factorises M) cannot be used."""
+``JointSolver.initial_acceleration`` (which factorises M) cannot be used."""
 from __future__ import annotations
 
 import numpy as np

@@ -1,4 +1,4 @@
-"""Two sparse matrix-vector products in one pass (issue #15): A x and B y for two square CSR
+"""Two sparse matrix-vector products in one pass: A x and B y for two square CSR
 matrices laid out on the union of their patterns (zeros where a matrix has no entry), so the
 row loop reads the pattern once for both and keeps two independent sums in flight.
 

@@ -51,19 +51,26 @@ def _gather_rows(perm, y, x):
             x[i, r] = y[pc, r]
 
 
+@njit(cache=True, inline="always")
+def _eliminate(Lp, Li, Lx, y, j):
+    """Column j of the forward substitution L^-1 y (y (n, k), in place): y[j] /= L_jj, then
+    y[i] -= L_ij y[j] below the diagonal (L CSC, diagonal first in each column)."""
+    k = y.shape[1]
+    d = Lx[Lp[j]]
+    for r in range(k):
+        y[j, r] /= d
+    for q in range(Lp[j] + 1, Lp[j + 1]):
+        i = Li[q]
+        lv = Lx[q]
+        for r in range(k):
+            y[i, r] -= lv * y[j, r]
+
+
 @njit(cache=True)
 def _fwd_mat(Lp, Li, Lx, y):
     """y <- L^-1 y in place (y (n, k)); L CSC, diagonal first in each column."""
-    n, k = y.shape
-    for j in range(n):
-        d = Lx[Lp[j]]
-        for r in range(k):
-            y[j, r] /= d
-        for q in range(Lp[j] + 1, Lp[j + 1]):
-            i = Li[q]
-            lv = Lx[q]
-            for r in range(k):
-                y[i, r] -= lv * y[j, r]
+    for j in range(y.shape[0]):
+        _eliminate(Lp, Li, Lx, y, j)
 
 
 @njit(cache=True)
@@ -162,15 +169,7 @@ def _fwd_part(Lp, Li, Lx, cols, rows_in, b, y):
         for r in range(k):
             y[rows_in[a], r] += b[a, r]
     for a in range(cols.shape[0]):
-        j = cols[a]
-        d = Lx[Lp[j]]
-        for r in range(k):
-            y[j, r] /= d
-        for q in range(Lp[j] + 1, Lp[j + 1]):
-            i = Li[q]
-            lv = Lx[q]
-            for r in range(k):
-                y[i, r] -= lv * y[j, r]
+        _eliminate(Lp, Li, Lx, y, cols[a])
 
 
 @njit(cache=True)
@@ -272,7 +271,7 @@ class SparseFactor:
     effective matrices of the condensed method are SPD): then perm_r = perm_c = P and
     U = D L^T to round-off, so U is not kept (P A P^T = L D L^T): the backward half takes dot
     products down the columns of L, last column first, read from a reversed copy of L so that
-    both halves stream memory upwards (``_reversed``; issue #15, measured in BENCHMARKS.md).
+    both halves stream memory upwards (``_reversed``; measured in BENCHMARKS.md).
     If SuperLU pivoted anyway, or U is not D L^T to 1e-10, the general LU is kept.
     symmetric=False: partial pivoting, L and U.
     ``solve(b)`` accepts (n,) or (n, k).  ``fast=False`` uses SuperLU's own solve.
@@ -340,7 +339,7 @@ class SparseFactor:
             _lu_solve(*self._L, *self._U, self._pr, self._pc, b2, x, y)
         return x
 
-    # ---- split and partial solves (condensed interface solver, issue #15) ---------------
+    # ---- split and partial solves (the condensed interface Newton) -----------------------
     # A^-1 = Pc U^-1 L^-1 Pr.  Right-hand sides supported on a few DOFs ("interface") reach
     # only the closure of their rows under the structure of L; a solution wanted at those DOFs
     # only needs the closure of their positions under the structure of U (the etree ancestors).

@@ -51,7 +51,7 @@ from ..scene import from_dict, load_scene
 from ..setup import describe, joint_inputs, load_ground_motion, validate
 from ..setup import fema_records as fema
 from ..setup.ground_motion import integrate
-from ..solve.newmark import SolverError
+from ..solve.stepping import SolverError
 from . import sweep
 from .fragility import DEFAULT_LIMIT_STATES, exceedances, fit_lognormal, probability
 from .im import IM_LABEL, IMS, first_period, scale_factor

@@ -1,4 +1,4 @@
-"""Benchmarks of ngs_driver.solve.newmark: time per implicit step with the nonlinear
+"""Benchmarks of ngs_driver.solve.joint_solver: time per implicit step with the nonlinear
 interface, condensed vs full Newton, at three mesh sizes of the block-on-block toy model
 (ngs_driver/solver_toymodel.py; ~0.9k, 3.3k, 12.5k DOFs) and at 128 vs 512 interface points.
 
@@ -11,7 +11,7 @@ import pytest
 
 from interfacelaw import (CohesiveParams, ContactParams, DamageParams, FrictionParams,
                           InterfaceLaw)
-from ngs_driver.solve.newmark import NewmarkSolver
+from ngs_driver.solve.joint_solver import JointSolver
 from toymodel import block_on_block
 
 DT = 2e-3
@@ -40,7 +40,7 @@ def _load(m, n):
 
 
 def _solver(m, method, warm):
-    s = NewmarkSolver(m.K, m.M, 1e-4 * m.K, m.B, m.w, _law(), dt=DT, method=method)
+    s = JointSolver(m.K, m.M, 1e-4 * m.K, m.B, m.w, _law(), dt=DT, method=method)
     s.static(m.gravity)
     for n in range(1, warm + 1):                # factorisation, S columns, damage everywhere
         s.step(_load(m, n))
