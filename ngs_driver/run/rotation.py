@@ -39,11 +39,11 @@ it: the offset books no work), ``after_step`` sets the run's stop on toppling (w
 set one yet), and its checkpoint holds the solver's gap offset, which it changes every step:
 on resume it is put back after the pairing's (which restores the offset of its last pairing).
 
-**Toppling** (``check``): the block above a joint topples when the exact moment of the static
-loads about its pivot turns it further (sign(theta) M_s(theta) > 0: its weight's resultant
-passed the end of the joint, theta past atan(b/h) for a rigid rectangle on a rigid base). The
-run ends with verdict collapse, mode "toppling", the joint, the time and the toppling angle of
-the static loads (where M_s(theta) = 0).
+**Toppling** (``toppled``, the part's ``after_step``): the block above a joint topples when the
+exact moment of the static loads about its pivot turns it further (sign(theta) M_s(theta) > 0:
+its weight's resultant passed the end of the joint, theta past atan(b/h) for a rigid rectangle
+on a rigid base). The run ends with verdict collapse, mode "toppling", the joint, the time and
+the toppling angle of the static loads (where M_s(theta) = 0).
 """
 from __future__ import annotations
 
