@@ -34,7 +34,7 @@ bench: $(STAMP)
 	$(VPY) -m pip install --quiet -c constraints.txt -e ".[bench]"
 	$(VPY) -m pytest -q tests/bench --benchmark-only --benchmark-json=.benchmarks.json
 	$(VPY) verification/write_benchmarks.py
-	$(VPY) verification/bench_speed2.py
+	$(VPY) verification/bench_speed_targets.py
 
 # the long Koyna benchmark study (DOF/point scaling, full 10 s runs, OpenSeesPy): ~15 min
 bench-koyna: $(STAMP)

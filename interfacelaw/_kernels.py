@@ -9,7 +9,7 @@ numba compiles one specialisation per combination and prunes the branches of the
 The equations are those of docs/law.md, derivatives written beside each formula.
 Components: 0 = normal, 1 and 2 = tangential (2 is absent in 2D).
 
-Speed (issue #15, BENCHMARKS.md): the loops are written so that LLVM vectorises them (AVX2: 4
+Speed (BENCHMARKS.md): the loops are written so that LLVM vectorises them (AVX2: 4
 points per instruction). What that takes, measured: no Python exceptions in the loop
 (``error_model="numpy"``: a float division by zero gives inf instead of raising, and every such
 value is discarded by a select — the inputs are checked finite by ``InterfaceLaw``); no calls
@@ -419,7 +419,7 @@ def code(contact, damage) -> int:
     the kernels): -1 if not :func:`is_fast` (the general loop), else
     (alpha == 2) + 2 (F_th == 0) + 4 form, the damage values the fast loop compiles in as
     constants (no damage counts as alpha = 1, F_th = 0, form 0: no extra loops).
-    Measured (BENCHMARKS.md, issue #15): with these three as run-time values the branches on
+    Measured (BENCHMARKS.md): with these three as run-time values the branches on
     them split the vectorised loop into blocks whose registers spill (each alone costs ~13 %);
     as constants the 2D loop runs ~1.4x faster, bit for bit the same numbers. The contact
     exponent m would add loops for no gain (it only feeds selects, no branch)."""

@@ -1,4 +1,4 @@
-"""Testing and benchmarking aids: not used by the law itself (issue #11).
+"""Testing and benchmarking aids: not used by the law itself.
 
 * :func:`evaluate_reference` — an independent plain-numpy implementation of the interface law
   (docs/law.md). It is public, not a test fixture, because it is useful beyond this

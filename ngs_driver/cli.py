@@ -21,8 +21,8 @@ import os
 
 # One BLAS/OpenMP thread unless the user chose otherwise: the run's dense work is small (dot
 # products of 1e4 entries, 224 x 224 systems) and threaded BLAS on a busy 2-core machine spent
-# 86 s where one thread spent 9 s on the same 1 500 steps of the 0.2x Koyna run (measured
-# 2026-11-25, BENCHMARKS.md). Set before numpy is first imported (the env is read then).
+# 86 s where one thread spent 9 s on the same 1 500 steps of the 0.2x Koyna run
+# (BENCHMARKS.md). Set before numpy is first imported (the env is read then).
 for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(_var, "1")
 
@@ -94,6 +94,7 @@ def _err(msg: str, code: int = 2) -> int:
 
 
 def _load(scene, overrides):
+    # deferred: a command imports only what it runs (fast --help; --dry-run without NGSolve)
     from .scene import load_scene
     return load_scene(scene, overrides)
 
@@ -111,10 +112,13 @@ def _outdir(out, sc=None) -> pathlib.Path:
 
 def _dry_run(sc, outdir) -> int:
     if sc.kind == "material_point":
+        # deferred: a command imports only what it runs (fast --help; --dry-run without NGSolve)
         from .apps.point import describe_point as describe
     elif sc.kind == "dcb":
+        # deferred: a command imports only what it runs (fast --help; --dry-run without NGSolve)
         from .apps.dcb import describe_dcb as describe
     else:
+        # deferred: a command imports only what it runs (fast --help; --dry-run without NGSolve)
         from .setup import describe
     try:
         d = describe(sc)
@@ -133,6 +137,7 @@ def _folder_check(outdir, key, resume, overwrite, dry_run):
     """The results folder before anything is built: created and writable (a probe file; a dry
     run removes what it created), not in use by another run, and not holding a run that would
     be lost (run.folder). Returns the folder's lock, held (released at once by a dry run)."""
+    # deferred: a command imports only what it runs (fast --help; --dry-run without NGSolve)
     from .run.folder import FolderLock, dry_run_probe, probe_writable, reuse_error
     if dry_run:
         if not outdir.is_dir():
@@ -163,6 +168,7 @@ def cmd_run(a) -> int:
         sc = _load(a.scene, a.overrides)
         outdir = _outdir(a.out, sc)
         if sc.kind == "koyna":
+            # deferred: a command imports only what it runs (fast --help; --dry-run without NGSolve)
             from .setup import validate
             validate(sc)              # input errors first: nothing created for a bad scene
             lock = _folder_check(outdir, _out_key(a.out), a.resume, a.overwrite, a.dry_run)
@@ -197,8 +203,9 @@ def _resume_check(sc, outdir):
             else ""
         raise ValueError(f"--resume: no checkpoint in {outdir}{done}; allowed: the results "
                          "directory of an interrupted run with output.checkpoint_every > 0")
+    # deferred: a command imports only what it runs (fast --help; --dry-run without NGSolve)
     from .run.checkpoint import checkpoint_scene_difference
-    diff = checkpoint_scene_difference(sc, outdir)
+    diff = checkpoint_scene_difference(sc.to_dict(), outdir)
     if diff is not None:
         raise ValueError(f"--resume: the checkpoint in {outdir} was written for a different "
                          f"scene: {diff}; allowed: the same scene and overrides as the "
@@ -208,8 +215,10 @@ def _resume_check(sc, outdir):
 def _run_other(sc, outdir, progress) -> int:
     """material_point (never imports NGSolve) and dcb scenes."""
     if sc.kind == "material_point":
+        # deferred: a command imports only what it runs (fast --help; --dry-run without NGSolve)
         from .apps.point import run_point as fn
     else:
+        # deferred: a command imports only what it runs (fast --help; --dry-run without NGSolve)
         from .apps.dcb import run_dcb_scene as fn
     try:
         s = fn(sc, outdir)
@@ -222,6 +231,7 @@ def _run_other(sc, outdir, progress) -> int:
 
 
 def _run_one(sc, outdir, resume, progress, overwrite=False, out_key="--out") -> int:
+    # deferred: a command imports only what it runs (fast --help; --dry-run without NGSolve)
     from .apps.dam import run
     try:
         run(sc, outdir, resume=resume, progress=progress, overwrite=overwrite, out_key=out_key)
@@ -284,6 +294,7 @@ def cmd_run_paper(a) -> int:
 
 
 def _compare(runs: dict, out) -> int:
+    # deferred: a command imports only what it runs (fast --help; --dry-run without NGSolve)
     from .post.report import compare_runs
     for d in runs.values():
         if not (pathlib.Path(d) / "summary.json").exists():
@@ -316,6 +327,7 @@ def cmd_modal(a) -> int:
         out = _outdir(a.out, sc)
     except ValueError as e:
         return _err(str(e))
+    # deferred: a command imports only what it runs (fast --help; --dry-run without NGSolve)
     from .apps.modal import run_modal
     md, res, damp = run_modal(sc, out, a.n)
     print(f"scene {sc.name}: nfree {md.nfree}, interface points {md.interface.npts}, "
@@ -382,6 +394,7 @@ def main(argv=None) -> int:
 
 
 def _cmd_ida(a) -> int:
+    # deferred: a command imports only what it runs (fast --help; --dry-run without NGSolve)
     from .studies.cli import cmd_ida
     return cmd_ida(a)
 

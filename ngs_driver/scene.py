@@ -18,6 +18,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, get_type_hints
 
+from .section import Section, read_profile_csv
+
 SCENE_DIR = Path(__file__).with_name("scenes")
 
 # The default section: the Koyna non-overflow monolith (Chopra & Chakrabarti 1973), as the
@@ -259,7 +261,7 @@ class Solver:
                              doc="a step whose energy jump exceeds this fraction of its work "
                                  "(+ 1e-3 of the run's energy scale) is cut and repeated in "
                                  "sub-steps, never accepted (run.energy.EnergyGuard, "
-                                 "docs/solver.md §9.1); 0: off (only to show what it stops)")
+                                 "docs/run.md §9.1); 0: off (only to show what it stops)")
     kinematics: str = _f("small", choices=("small", "finite_rotation"),
                          doc="small: linearised rotations of the blocks (up to "
                              "time.max_rotation <= 0.1 rad); finite_rotation: the joints' gap "
@@ -322,7 +324,6 @@ class Scene:
 
     @property
     def section(self):
-        from .section import Section
         return Section(self.geometry.profile)
 
     def joint_tables(self) -> list:
@@ -486,7 +487,6 @@ def _build(cls, raw: dict, path: str):
         else:
             kw[name] = _check_scalar(p, val, typ, f.metadata)
     if cls is Geometry and kw.get("profile_file"):
-        from .section import read_profile_csv
 
         if "profile" in raw:
             raise ValueError(f"{path}.profile_file = {kw['profile_file']!r}: give either "
@@ -556,7 +556,6 @@ def _build_joints(val, raw_interface, path, raw_uplift=None):
 
 def _scene_checks(sc):
     """Checks across sections (geometry vs loads vs joints); raises naming the key."""
-    from .section import Section
 
     g = sc.geometry
     try:

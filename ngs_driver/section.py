@@ -13,6 +13,7 @@ Used by the scene schema (validation before anything is built) and by ``fe.geome
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 import numpy as np
 
@@ -58,7 +59,6 @@ def _segments_cross(p1, p2, q1, q2) -> bool:
 
 def read_profile_csv(path) -> list[list[float]]:
     """Two columns x, y (comma or white space; '#' comments; an optional header line)."""
-    from pathlib import Path
 
     p = Path(path)
     if not p.is_file():

@@ -86,13 +86,13 @@ def pytest_sessionfinish(session):
 # The slowest files on a cold numba cache (a fresh clone, CI), the slowest first. Measured as
 # CPU seconds per file on one worker (the worker's own CPU and its subprocesses', so not
 # inflated by other jobs on the machine; BENCHMARKS.md "make test on a fresh clone"): reference
-# 62, bench_speed2 45, law 44, studies 22, sliding 20, drivers 16, verify 13, cabi 9,
-# damage_rate 9, safe_runs 9, pipeline 8, unzip 8, solver_stall 8, examples 7, real_dams 7,
-# cli 6; every other file <= 5.
-SLOWEST_FIRST = ("test_reference.py", "test_bench_speed2.py", "test_law.py", "test_studies.py",
-                 "test_sliding.py", "test_drivers.py", "test_verify.py", "test_cabi.py",
+# 62, bench_speed_targets 45, law 44, studies 22, sliding 20, drivers 16, verify 13, cabi 9,
+# damage_rate 9, safe_runs 9, pipeline 8, debonding_step_refinement 8, solver_stall 8,
+# examples 7, real_dams 7, cli 6; every other file <= 5.
+SLOWEST_FIRST = ("test_reference.py", "test_bench_speed_targets.py", "test_law.py",
+                 "test_studies.py", "test_sliding.py", "test_drivers.py", "test_verify.py", "test_cabi.py",
                  "test_damage_rate.py", "test_safe_runs.py", "test_pipeline.py",
-                 "test_unzip.py", "test_solver_stall.py", "test_examples.py",
+                 "test_debonding_step_refinement.py", "test_solver_stall.py", "test_examples.py",
                  "test_real_dams.py", "test_cli.py")
 
 

@@ -116,7 +116,7 @@ SCENES = [
     (["geometry.profile_file='/nonexistent/section.csv'"],
      r"geometry.profile_file = '/nonexistent/section.csv': no such file"),
     (["interface.contact='soft'"], r"interface.contact = 'soft': not allowed"),
-    # plane stress / strain (issue #23)
+    # plane stress / strain
     (["materials.plane=axisymmetric"],
      r"materials.plane = 'axisymmetric': not allowed, choose one of \['strain', 'stress'\]"),
     (["materials.plane=1"], r"materials.plane = 1: wrong type"),
@@ -208,7 +208,7 @@ SCENES = [
      r"ground_motion.polarity = 'reversed': not allowed, choose one of \['normal', 'inverse'\]"),
     (["ground_motion.record='pulse:square:0.5:0.4'"],
      r"ground_motion.record = 'pulse:square:0.5:0.4': not a pulse; allowed: 'pulse:<shape>"),
-    # physical sanity at --dry-run (issue 33; setup/sanity.py, docs/solver.md §8.7)
+    # physical sanity at --dry-run (setup/sanity.py, docs/run.md §8)
     (["interface.contact_stiffness=1e5"],
      r"interface.contact_stiffness = 100000.0 Pa/m: under the dam's weight .*overlap by "
      r"12.57 m, more than 1 % of its smallest element \(0.1 m\).*allowed: >= 1.26e\+09 Pa/m \(the "

@@ -1,4 +1,4 @@
-"""Item 3 of issue 31: no verdict from a step that breaks the physics.
+"""No verdict from a step that breaks the physics.
 
 * The re-pairing bug behind koyna_1967's "collapse" at 3.642 s: after a joint is paired anew
   (finite sliding) its gap carries an offset, g = B u + g_offset; the condensed Newton's
@@ -32,7 +32,7 @@ def cracked_law():
 def offset_run(model, method, nsteps=20, dt=2e-3):
     """Static gravity on the bonded toy joint, then the joint 'paired anew' with the same B and
     an offset: 1e-5 m closing at every point (a continuous re-pairing's size, koyna_1967) and
-    the last point opened by 1 m (slid off its face, run/sliding.OPEN_GAP); then steps under a
+    the last point opened by 1 m (slid off its face, run/pairing.OPEN_GAP); then steps under a
     crest load. Returns (solver, displacements)."""
     m = model
     s = JointSolver(m.K, m.M, None, m.B, m.w, cracked_law(), dt=dt, method=method,

@@ -11,7 +11,8 @@ pytest.importorskip("ngsolve")
 
 from ngs_driver.solve.massless import massless_dofs  # noqa: E402
 from ngs_driver.solve.massless import initial_acceleration  # noqa: E402
-from ngs_driver.fe.modal import k0_from_scene, modal_analysis  # noqa: E402
+from ngs_driver.fe.modal import modal_analysis  # noqa: E402
+from ngs_driver.setup import joint_inputs, k0_from_scene, resolve  # noqa: E402
 from ngs_driver.fe.model import build_from_scene  # noqa: E402
 from ngs_driver.run.joints import Joints  # noqa: E402
 from ngs_driver.scene import load_scene  # noqa: E402
@@ -56,7 +57,7 @@ def test_massless_initial_acceleration(massless):
     get 0 with stiffness-proportional damping (a1 > 0) and the quasi-static answer
     (K + J)_00 a_0 = -J_0m a_m without it."""
     sc, ml = massless
-    joints = Joints(sc, ml.interface)
+    joints = Joints(joint_inputs(sc), ml.interface)
     s = JointSolver(ml.K, ml.M, None, ml.interface.B, ml.interface.w, joints.solver_law(),
                     dt=0.002, tol_residual=1e-12)
     s.static(ml.f_gravity + ml.f_water)
@@ -127,9 +128,9 @@ def test_absorbing_rock_reproduces_the_outcrop_motion():
     gm = validate(sc)
     model = build_from_scene(sc)
     it = model.interface
-    joints = Joints(sc, it)
+    joints = Joints(joint_inputs(sc), it)
     rock = AbsorbingRock(model, sc.materials.rock, gm, sc.ground_motion.start)
-    up = Uplift(sc, it, joints)
+    up = Uplift(resolve(sc), it, joints)
     s = JointSolver(model.K, model.M, rock.C, it.B, it.w, joints.solver_law(), dt=0.002)
     _, f, _ = solve_pre_earthquake(s, model.f_gravity + model.f_water, up, rock)
     s.initial_acceleration(f + rock.force(0.0))

@@ -123,7 +123,8 @@ def test_strong_joint_behaves_like_no_joint(tmp_path):
     mesh_glued = _glued(md.mesh)
     sc0 = _scene([], **{"ground_motion.scale": 0.3})
     from ngs_driver.fe.model import model_kwargs
-    kw = model_kwargs(sc0)
+    from ngs_driver.setup import model_inputs
+    kw = model_kwargs(model_inputs(sc0))
     md0 = build_model(mesh=mesh_glued, **{k: v for k, v in kw.items()
                                           if k in ("foundation", "order", "gauss_points",
                                                    "dam", "rock", "gravity",

@@ -158,7 +158,7 @@ def test_resume_other_scene_refused(tmp_path, smoke_model):
 def test_smoke_regression(smoke_run):
     """Koyna_smoke gives the crest displacement, D and kappa profiles and final displacement
     recorded at full precision from this round's final solver (generalized-alpha rho_inf 0.7,
-    rayleigh_deformation damping, contact stiffness 9e10 Pa/m; regenerated 2026-11-25 into
+    rayleigh_deformation damping, contact stiffness 9e10 Pa/m; in
     tests/data/koyna_smoke_regression.npz). A regression pin, not a verification: it catches
     any change of the results. Tolerance 1e-10 relative to the largest value: the run is
     repeatable to round-off (tests/test_koyna_studies.py), and a change of the physics or the

@@ -10,7 +10,8 @@ ngs = pytest.importorskip("ngsolve")
 from ngs_driver.fe import geometry as geom  # noqa: E402
 from ngs_driver.scene import KOYNA_PROFILE  # noqa: E402
 from ngs_driver.fe.model import build_model, CLASSIC_KOYNA, PAPER_DAM  # noqa: E402
-from ngs_driver.fe.modal import (modal_analysis, paper_k0, rayleigh_coefficients,  # noqa: E402
+from ngs_driver.setup.laws import paper_k0  # noqa: E402
+from ngs_driver.fe.modal import (modal_analysis, rayleigh_coefficients,  # noqa: E402
                               rayleigh_ratio)
 
 pytestmark = pytest.mark.fe

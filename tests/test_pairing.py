@@ -1,5 +1,5 @@
 """Finite sliding: the lower face below each point of a sliding joint (fe/pairing.py,
-run/sliding.py), checked on fields the interpolation must reproduce exactly."""
+run/pairing.py), checked on fields the interpolation must reproduce exactly."""
 import numpy as np
 import pytest
 

@@ -1,4 +1,4 @@
-"""Pine Flat through Taft (issue 31, item 1): the shipped Taft 1952 S69E record and its header,
+"""Pine Flat through Taft: the shipped Taft 1952 S69E record and its header,
 the bad record files, the measured periods beside `dam-seismic modal`, and the independent
 linear check (scikit-fem) in its fast form. docs/real_dams.md "Pine Flat", docs/validation.md."""
 import json
@@ -89,7 +89,7 @@ def test_record_whose_header_lies_is_refused(tmp_path, capsys):
 def test_linear_taft_against_skfem_fast(tmp_path, study):
     """The independent linear check's fast form (h = 8 m, 6 s of Taft, dt 0.01 s): the crest
     displacement of our model and stepper equals scikit-fem's own assembly, eigenvalues and
-    Newmark loop on the same triangles within 2 % of the peak (issue 31; measured 8e-14: the
+    Newmark loop on the same triangles within 2 % of the peak (the acceptance set before the check; measured 8e-14: the
     same space and the same average-acceleration scheme, round-off only). A wrong mass, a
     wrong Rayleigh a0/a1, a wrong load vector or a wrong record would each move it by more."""
     res = study("pine_flat_linear").main(fast=True, outdir=tmp_path)

@@ -248,6 +248,63 @@ def test_the_stage_check_sees_a_violation(tmp_path):
     assert not any(m == "ngs_driver.post.m" and d.startswith("ngs_driver.run") for m, d in bad)
 
 
+# Below ``setup`` the scene is resolved (``setup.resolve`` / ``setup.model_inputs``): fe, solve
+# and run get typed inputs and never look into the raw scene. Statically, "looking into" is an
+# attribute read on something named ``scene`` or ``sc`` or on an attribute ``.scene`` (``x.scene.
+# time``), or getattr / hasattr on one; handing the scene on to setup unread is allowed.
+SCENE_FREE_STAGES = ("fe", "solve", "run")
+SCENE_NAMES = ("scene", "sc")
+
+
+def _is_scene(node) -> bool:
+    return ((isinstance(node, ast.Name) and node.id in SCENE_NAMES)
+            or (isinstance(node, ast.Attribute) and node.attr == "scene"))
+
+
+def _scene_reads(tree):
+    """(line, what) of every read into a raw scene object."""
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Attribute) and _is_scene(node.value):
+            yield node.lineno, node.attr
+        elif (isinstance(node, ast.Call) and isinstance(node.func, ast.Name)
+              and node.func.id in ("getattr", "hasattr") and node.args
+              and _is_scene(node.args[0])):
+            yield node.lineno, f"{node.func.id}()"
+
+
+def _scene_violations(mods):
+    bad = []
+    for m, f in mods.items():
+        parts = m.split(".")
+        if parts[0] == "ngs_driver" and len(parts) > 2 and parts[1] in SCENE_FREE_STAGES:
+            bad += [(m, line, what) for line, what in _scene_reads(ast.parse(f.read_text()))]
+    return bad
+
+
+def test_no_raw_scene_below_setup():
+    bad = _scene_violations(_modules())
+    assert not bad, bad
+
+
+def test_the_raw_scene_check_sees_a_violation(tmp_path):
+    """The check above is not vacuous: a run module reading scene.time.dt, self.scene.name or
+    getattr(sc, ...) is reported; one handing the scene to setup unread, or holding typed
+    inputs, is not; setup and post may read the scene."""
+    run = tmp_path / "run_m.py"
+    run.write_text("def f(scene, sc, a):\n    x = scene.time.dt + getattr(sc, 'y', 0)\n"
+                   "    return a.scene.name, x\n")
+    ok = tmp_path / "run_ok.py"
+    ok.write_text("from ..setup import resolve\n"
+                  "def g(scene, inputs):\n    self_scene = scene\n"
+                  "    return resolve(scene), inputs.time.dt, self_scene\n")
+    post = tmp_path / "post_m.py"
+    post.write_text("def h(a):\n    return a.scene.output.dir\n")
+    bad = _scene_violations({"ngs_driver.run.m": run, "ngs_driver.run.ok": ok,
+                             "ngs_driver.post.m": post, "ngs_driver.setup.m": post})
+    assert sorted(w for m, _, w in bad) == ["getattr()", "name", "time"], bad
+    assert {m for m, _, _ in bad} == {"ngs_driver.run.m"}
+
+
 def test_no_test_fixtures_in_the_packages():
     for pkg in PACKAGES:
         names = {f.name for f in (ROOT / pkg).rglob("*.py")}

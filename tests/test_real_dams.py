@@ -1,4 +1,4 @@
-"""Real dams (issue #23): the Pine Flat section against its public source, plane stress vs plane
+"""Real dams: the Pine Flat section against its public source, plane stress vs plane
 strain (beam theory, a patch test, an independent eigen-solution in scikit-fem), and the
 fundamental resonance that `modal` names."""
 import math
@@ -59,7 +59,7 @@ def test_pine_flat_outline_equals_public_file():
     assert off.max() < 5e-3, off.max()
     up = pub[:, 0] < 5.2                        # the upstream face (x <= 5.11)
     assert off[~up].max() < 1e-9
-    # the outline's landmarks (issue #23) and the file's order: heel, toe, downstream, crest
+    # the outline's landmarks and the file's order: heel, toe, downstream, crest
     s = Section(P)
     assert s.height == 121.92 and s.base_width == 95.71
     assert s.crest_upstream == (5.11, 121.92)
@@ -383,7 +383,7 @@ def test_verification_koyna_records_fast(tmp_path, study):
     no step had to be cut)."""
     import json
 
-    from ngs_driver.run.stopping import VERDICTS
+    from ngs_driver.run.collapse import VERDICTS
     from ngs_driver.setup.records import load_ground_motion
 
     rows = study("koyna_records").main(fast=True, outdir=tmp_path)

@@ -133,7 +133,8 @@ def test_koyna_f1_ratios(classic_acoustic):
     Westergaard (7/12 rho H^2, all at the face) more than the incompressible acoustic water
     (0.543 rho H^2, distributed): f1_w < f1_ac < f1_empty, ratios 0.85-0.95 (measured 0.876 and
     0.919; the literature order for full reservoirs is a 10 % drop, docs/reservoir.md §7)."""
-    from ngs_driver.fe.modal import k0_from_scene, modal_analysis
+    from ngs_driver.fe.modal import modal_analysis
+    from ngs_driver.setup import k0_from_scene
     from ngs_driver.fe.model import build_from_scene
 
     sc = load_scene("koyna_classic")

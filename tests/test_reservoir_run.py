@@ -116,7 +116,7 @@ def test_compressible_run_tends_to_the_incompressible_run(tmp_path, sides):
 def test_resume_with_compressible_water_is_exact(tmp_path):
     """Killed after 12 steps (checkpoint at 10) and resumed: the water state and the pressure
     history come back from the run's checkpoint (one set with the solver's state,
-    run/checkpoint.py), and the pressure CSV and the final displacement equal those of an
+    run.checkpoint.SolverPart), and the pressure CSV and the final displacement equal those of an
     uninterrupted run (bitwise: same operations)."""
     from ngs_driver.apps.dam import RunInterrupted, run
 
@@ -126,8 +126,8 @@ def test_resume_with_compressible_water_is_exact(tmp_path):
     with pytest.raises(RunInterrupted):
         run(sc, tmp_path / "b", progress=False, plots=False, max_steps=12)
     with np.load(tmp_path / "b" / "checkpoint_0000010.npz") as z:
-        assert len(z["reservoir_rows_t"]) == 10
-        assert any(k.startswith("reservoir_fluid_") for k in z.files)   # compressible water
+        assert len(z["reservoir.rows_t"]) == 10
+        assert any(k.startswith("solver.water.") for k in z.files)   # compressible water
     assert not list((tmp_path / "b").glob("reservoir_state_*.npz"))
     run(sc, tmp_path / "b", resume=True, progress=False, plots=False)
     ca = (tmp_path / "a" / "reservoir_pressure.csv").read_text()
@@ -160,4 +160,4 @@ def test_reservoir_state_of_the_previous_checkpoint_kept(tmp_path):
         "checkpoint_0000020.npz", "checkpoint_0000030.npz"]
     for k in (20, 30):
         with np.load(tmp_path / f"checkpoint_{k:07d}.npz") as z:
-            assert len(z["reservoir_rows_t"]) == k       # the pressure history to step k
+            assert len(z["reservoir.rows_t"]) == k       # the pressure history to step k

@@ -12,6 +12,7 @@ from interfacelaw import CohesiveParams, ContactParams, InterfaceLaw
 from ngs_driver.run.energy import EnergyBudget
 from ngs_driver.solve.products import FusedPair
 from ngs_driver.run.joints import Joints, crack_measures
+from ngs_driver.setup import joint_inputs
 from ngs_driver.run.history import History
 from ngs_driver.scene import load_scene
 
@@ -58,7 +59,7 @@ def test_damping_work_from_the_budget_products():
                 assert rs[k] == rd[k], k
     # a restored budget continues with the same products (bitwise restart)
     again = _budgets(np.random.default_rng(3))[0]
-    again.restore(split.state())
+    again.restore(split.checkpoint())
     assert all(np.array_equal(x, y) for x, y in zip(again._prods, split._prods))
 
 
@@ -104,7 +105,7 @@ def test_size_scale_update_skipped_when_the_failed_length_is_unchanged():
     x = np.linspace(0.0, 70.0, n)
     w = np.full(n, 70.0 / n)
     iface = SimpleNamespace(parts={"base": slice(0, n)}, x=x, y=np.zeros(n), w=w)
-    js = Joints(sc, iface)
+    js = Joints(joint_inputs(sc), iface)
     law0 = js.laws[0]
     kappa = np.zeros(n)
     seq = [0, 0, 3, 3, 3, 10, 10, 25, 25, 25]          # debonded points from the heel
@@ -133,7 +134,7 @@ def test_history_buffer_grows_and_round_trips():
     for k in keys:
         assert np.array_equal(A[k], np.asarray([r[k] for r in rows], dtype=float))
     assert np.array_equal(h.cols["x"], A["x"])
-    h2 = History.from_arrays({f"hist_{k}": v for k, v in A.items()}, keys)
+    h2 = History.from_arrays(A, keys)
     h2.append(step=7, t=0.7, x=1.0)
     assert len(h2) == 8 and np.array_equal(h2.arrays()["t"][:7], A["t"])
     assert History(keys).arrays()["t"].shape == (0,)
@@ -201,7 +202,7 @@ def test_joint_scan_gives_the_numpy_measures_bit_for_bit():
     iface = SimpleNamespace(parts={"base": slice(0, n1), "lift45": slice(n1, n)},
                             x=np.r_[np.linspace(0, 70, n1), np.linspace(3, 40, n2)],
                             y=np.r_[np.zeros(n1), np.full(n2, 45.0)], w=w)
-    js = Joints(sc, iface)
+    js = Joints(joint_inputs(sc), iface)
     assert js.laws[0].friction is not None
     assert js.law_params()[0, 1] != 1.0
     saf = SlidingSafety(js)                    # only its measures (no model needed)
@@ -235,7 +236,7 @@ def test_joint_scan_gives_the_numpy_measures_bit_for_bit():
         deb = st.debonded
         checked_friction |= bool(np.any(deb[:n1] & (t[:n1, 0] < 0)))
         # the update from the scan = the update from the state
-        a, b = Joints(sc, iface), Joints(sc, iface)
+        a, b = Joints(joint_inputs(sc), iface), Joints(joint_inputs(sc), iface)
         assert a.update(st, scan) == b.update(st)
         assert a.sizes == b.sizes and a.laws[0].cohesive == b.laws[0].cohesive
     assert checked_friction
@@ -389,3 +390,72 @@ def test_step_products_feed_the_budget_and_the_next_rhs_bit_for_bit():
     s.forget_products()
     assert np.array_equal(half, s.right_hand_side(0.5e-3, f))
     assert np.array_equal(kept, s.right_hand_side(1e-3, f, fused=False))  # and numpy's expression
+
+
+@pytest.mark.parametrize("name, sets", [("koyna", []), ("koyna_1967", []),
+                                        ("koyna", ["interface.contact=none"])])
+def test_setup_k0_is_the_run_laws_stiffness(name, sets):
+    """setup's k0 of the base joint (the modal command's and the studies') is the initial
+    stiffness of the law the run builds for the base, size-scaled to its start (the check
+    analysis.py asserted at every run). 1e-9: the same formula through different roundings
+    (l_Nc formed once or twice)."""
+    from ngs_driver.setup import k0_from_scene
+    from ngs_driver.solve.joint_laws import law_stiffness
+    sc = load_scene(name, sets)
+    law = _base_law_at_start(sc)
+    kn, kt = k0_from_scene(sc)
+    k0n, k0t = law_stiffness(law)
+    assert abs(kn - k0n) <= 1e-9 * k0n and abs(kt - k0t) <= 1e-9 * k0t
+
+
+def _base_law_at_start(sc):
+    """The base's law as ``run.joints.Joints`` starts it (scaled to size 0)."""
+    from ngs_driver.setup import build_law, build_scaling
+    law = build_law(sc.interface)
+    scal = build_scaling(sc.interface, law)
+    return scal.update(law, 0.0) if scal is not None else law
+
+
+def test_every_part_of_a_run_keeps_the_protocol():
+    """Every class ``Analysis`` lists as a part implements ``run.parts.StepPart`` (a name,
+    before_step, after_step, checkpoint, restore) and the names are unique (a checkpoint's
+    namespaces); the split of a checkpoint puts arrays in the npz and the rest in the
+    manifest, and joins each part's dict back unchanged."""
+    from ngs_driver.run import parts as P
+    from ngs_driver.run.checkpoint import CheckpointStep, SolverPart
+    from ngs_driver.run.collapse import CollapseRule
+    from ngs_driver.run.energy import EnergyBudget, EnergyGuard
+    from ngs_driver.run.history import HeelOpening, Snapshots, StepHistory
+    from ngs_driver.run.joints import SizeScale
+    from ngs_driver.run.pairing import JointPairing
+    from ngs_driver.run.progress import OutputsStep, Progress
+    from ngs_driver.run.reservoir import ReservoirRun
+    from ngs_driver.run.safety import SlidingSafety
+    from ngs_driver.run.screening import Screening
+    from ngs_driver.run.uplift import Uplift
+    from ngs_driver.run.rotation import FiniteRotation
+    classes = [SolverPart, Uplift, Screening, ReservoirRun, Joints, SlidingSafety, EnergyBudget,
+               StepHistory, EnergyGuard, SizeScale, JointPairing, Snapshots, OutputsStep,
+               Progress, HeelOpening, FiniteRotation, CollapseRule, CheckpointStep]
+    for c in classes:
+        assert all(callable(getattr(c, m, None)) for m in
+                   ("before_step", "after_step", "checkpoint", "restore")), c
+    names = [c.name for c in classes]
+    assert len(set(names)) == len(names) and "run" not in names, names
+
+    class A(P.Part):
+        name = "a"
+
+        def checkpoint(self):
+            return {"x": np.arange(3.0), "n": 2, "d": {"t": None}}
+
+    class B(P.Part):
+        name = "b"
+
+    arrays, meta = P.split_checkpoint([A(), B()])
+    assert list(arrays) == ["a.x"] and meta == {"a": {"n": 2, "d": {"t": None}}, "b": {}}
+    back = P.join_checkpoint("a", arrays, meta)
+    assert np.array_equal(back["x"], np.arange(3.0))
+    assert back["n"] == 2 and back["d"] == {"t": None}
+    with pytest.raises(ValueError, match="two parts named 'a'"):
+        P.split_checkpoint([A(), A()])

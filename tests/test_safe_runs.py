@@ -1,6 +1,6 @@
-"""Issue 33 (SAFE-RUNS): a results folder owned by one run, nothing deleted unasked, writable
-before any work, checkpoints committed as one set and a damaged one named (docs/solver.md
-§8.5-8.7). Each test fails on the code before the issue (860c990)."""
+"""Safe runs: a results folder owned by one run, nothing deleted unasked, writable
+before any work, checkpoints committed as one set and a damaged one named (docs/run.md
+§6-8). Each test fails on the code before these checks (860c990)."""
 import json
 import os
 import pathlib
@@ -246,6 +246,27 @@ def test_resume_with_another_checkpoint_interval(tmp_path, smoke, capsys):
     s = run(sc3, d, model=md, resume=True, **QUIET)
     ref = run(sc, tmp_path / "ref", model=md, **QUIET)
     assert s["results"] == ref["results"]
+
+
+def test_checkpoint_of_another_format_is_refused(tmp_path, smoke, capsys):
+    """A checkpoint of the layout before the run's parts (format 1: no "format" in its
+    manifest) is refused on --resume, at --dry-run too, naming its format and the remedy;
+    nothing of the folder is changed."""
+    sc, md = smoke
+    d = tmp_path / "D"
+    with pytest.raises(RunInterrupted):
+        run(sc, d, model=md, max_steps=3, **QUIET)
+    meta = json.loads((d / "checkpoint.json").read_text())
+    assert meta["format"] == ckmod.CHECKPOINT_FORMAT
+    del meta["format"]
+    (d / "checkpoint.json").write_text(json.dumps(meta))
+    rc, out, err = _cli(["run", "koyna_smoke", "--resume", "--dry-run", "--out", str(d), "--set",
+                         "time.duration=0.01", "--set", "output.checkpoint_every=2"], capsys)
+    assert rc == 2 and "checkpoint format 1" in err and "--overwrite" in err, err
+    with pytest.raises(ValueError, match=r"has checkpoint format 1, written by another "
+                                         r"version; this version reads format 2"):
+        run(sc, d, model=md, resume=True, **QUIET)
+    assert json.loads((d / "checkpoint.json").read_text()) == meta
 
 
 # ----------------------------------------------------------------------- damaged checkpoints

@@ -11,6 +11,7 @@ from ngs_driver.fe.model import build_from_scene  # noqa: E402
 from ngs_driver.post.files import read_csv  # noqa: E402
 from ngs_driver.apps.dam import run  # noqa: E402
 from ngs_driver.run.joints import Joints, crack_measures  # noqa: E402
+from ngs_driver.setup import joint_inputs, resolve  # noqa: E402
 from ngs_driver.run.post_earthquake import PostEarthquakeCheck, resultant_verdict  # noqa: E402
 from ngs_driver.run.safety import SlidingSafety  # noqa: E402
 from ngs_driver.run.statics import solve_pre_earthquake  # noqa: E402
@@ -87,13 +88,13 @@ def _precracked(model, scene, a_target):
     it = model.interface
     nodes = np.unique(np.round(it.segments[:, :, 0].ravel(), 12))
     a = float(nodes[np.argmin(np.abs(nodes - a_target))])
-    joints = Joints(scene, it)
+    joints = Joints(joint_inputs(scene), it)
     s = JointSolver(model.K, model.M, None, it.B, it.w, joints.solver_law(), dt=0.002,
                     tol_residual=1e-11, max_iter=60)
     st = s.state.copy()
     st.kappa[it.x < a] = 1.0
     s.state = st
-    up = Uplift(scene, it, joints)
+    up = Uplift(resolve(scene), it, joints)
     solve_pre_earthquake(s, model.f_gravity + model.f_water, up)
     return a, s, SlidingSafety(joints).static_measures(s, up.p)["base"], up
 
@@ -144,13 +145,13 @@ def test_crack_dependent_uplift_is_a_fixed_point_of_each_step(rigid_model, in_cr
     sc = load_scene("koyna_smoke", RIGID + ["uplift.model=linear", f"uplift.in_crack={in_crack}",
                                             "interface.damage=false"])
     it = rigid_model.interface
-    joints = Joints(sc, it)
+    joints = Joints(joint_inputs(sc), it)
     s = JointSolver(rigid_model.K, rigid_model.M, None, it.B, it.w, joints.solver_law(),
                     dt=0.002, tol_residual=1e-10, max_iter=60)
     st = s.state.copy()
     st.kappa[it.x < 10.0] = 1.0
     s.state = st
-    up = Uplift(sc, it, joints)
+    up = Uplift(resolve(sc), it, joints)
     _, f_static, _ = solve_pre_earthquake(s, rigid_model.f_gravity + rigid_model.f_water, up)
     s.initial_acceleration(f_static)
     a0 = crack_measures(s.state, it.w)[1]
@@ -169,14 +170,14 @@ def test_post_earthquake_without_equilibrium_reports_the_resultants(rigid_model)
     FS = f W / T from the load resultants (1e-12: sums of the assembled load vector)."""
     sc = load_scene("koyna_smoke", RIGID + ["uplift.model=linear", "uplift.in_crack=zero"])
     it = rigid_model.interface
-    joints = Joints(sc, it)
+    joints = Joints(joint_inputs(sc), it)
     s = JointSolver(rigid_model.K, rigid_model.M, None, it.B, it.w, joints.solver_law(),
                     dt=0.002, max_iter=10)
     st = s.state.copy()
     st.kappa[:] = 1.0
     s.state = st
-    check = PostEarthquakeCheck(sc, rigid_model, joints, SlidingSafety(joints),
-                                Uplift(sc, it, joints))
+    check = PostEarthquakeCheck(sc.time.max_slip, rigid_model, joints, SlidingSafety(joints),
+                                Uplift(resolve(sc), it, joints))
     u0 = s.u.copy()
     pe = check.run(s, rigid_model.f_gravity + rigid_model.f_water)
     b = pe["joints"]["base"]

@@ -25,7 +25,7 @@ def test_dcr_is_the_principal_stress_of_each_element(model):
     principal stress of NGSolve's own stress CoefficientFunction at the element centroid
     (P1: constant per element; 1e-12 of the largest: round-off of two assemblies)."""
     sc = load_scene("koyna_smoke", SETS + ["screening.tensile_strength=2e6"])
-    scr = Screening(sc, model)
+    scr = Screening(sc.screening.tensile_strength, model)
     assert scr.x.size == sum(1 for el in model.mesh.Elements() if el.mat != "rock")
     u = np.random.default_rng(1).normal(size=model.nfree) * 1e-3
     d = scr.dcr(u) * 2e6
@@ -43,7 +43,7 @@ def test_dcr_is_the_principal_stress_of_each_element(model):
 def test_cumulative_inelastic_duration_counts_the_steps_above_one(model, tmp_path):
     """Three states: the duration of every element is dt times the number of states with
     DCR > 1, the maximum and its time are those of the largest state (exact arithmetic)."""
-    scr = Screening(load_scene("koyna_smoke", SETS), model)
+    scr = Screening(load_scene("koyna_smoke", SETS).screening.tensile_strength, model)
     rng = np.random.default_rng(2)
     us = [rng.normal(size=model.nfree) * 1e-4 * s for s in (1.0, 3.0, 0.5)]
     for k, u in enumerate(us):

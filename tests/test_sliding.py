@@ -51,7 +51,7 @@ def test_rigid_block_exact_against_closed_form():
     the slip s = int v dt, integrated here by quadrature to 1e-10. Tolerance 2e-6: the
     reference integrates the record sampled every 1e-4 s and linear between samples exactly;
     that differs from the sine by (pi dt / T)^2 / 8 = 4e-7 of its amplitude (measured 1.5e-7 on
-    the slip; 3e-7 before the onset fix of 2026-11-27)."""
+    the slip)."""
     g = 9.81
     A, T, f = 0.8 * g, 0.5, 0.5
     mu = f * g
@@ -131,7 +131,7 @@ def test_trapezoidal_rule_rattles_generalized_alpha_does_not(res):
 def test_max_slip_stops_undetermined_when_the_rigid_block_passes_it(tmp_path):
     """sliding_block with time.max_slip = 2 cm: the stop rule stops the run at the first step
     whose slip passes 2 cm, with the verdict "undetermined" (the model's range left, not a
-    collapse: issue 31), and the exact rigid block (Newmark 1965, same pulse) passes 2 cm at
+    collapse), and the exact rigid block (Newmark 1965, same pulse) passes 2 cm at
     t* = 0.26786 s. The stop must fall in [t*, t* + 2 dt]: one step of detection (the rule is
     checked at the step ends) and one for the elastic block's compliance and the trapezoid
     error (the permanent slip is within 0.1 %, test above). A run stopped there gets no
@@ -164,7 +164,7 @@ def test_rotation_past_max_rotation_is_undetermined_and_sliding_off_is_a_collaps
     joint whose mean slip reaches the joint's length: "sliding off", a collapse (a rule-level
     check: the rule's own measures, no run)."""
     from ngs_driver.apps.dam import run
-    from ngs_driver.run.stopping import CollapseRule
+    from ngs_driver.run.collapse import CollapseRule
     from ngs_driver.scene import load_scene
     A = 1.25 * (2.0 / 10.0)
     sets = ["geometry.profile=[[0,0],[4.0,0],[4.0,20.0],[0,20.0]]", "interface.friction=2.0",

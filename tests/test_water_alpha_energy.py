@@ -1,4 +1,4 @@
-"""The water's share of the integrator's energy exchange (docs/solver.md §9.1).
+"""The water's share of the integrator's energy exchange (docs/run.md §9.1).
 
 The water's energy identity (solve/fluid.py ``_book``) integrates the fluid rows once in time;
 with Newmark's average acceleration the integrated rows hold exactly, with HHT and generalized

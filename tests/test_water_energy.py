@@ -1,4 +1,4 @@
-"""The water in the energy budget (issue #23): a linear Koyna run with water closes its budget
+"""The water in the energy budget: a linear Koyna run with water closes its budget
 to 1e-8 of the input work for compressible acoustic water (its kinetic and compression energy,
 the energy radiated at the far end and absorbed at the bottom, and the ground's work on it are
 booked), incompressible water and Westergaard (added masses in M: their kinetic energy is in

@@ -1,4 +1,4 @@
-"""Energy balance of dam runs against the time step, with run time (docs/solver.md, energy).
+"""Energy balance of dam runs against the time step, with run time (docs/run.md §9).
 
 The budget of ``run.energy`` closes exactly for the bulk (with the scene's integrator: the
 generalized-alpha family's numerical dissipation is booked as E_alg, its closing term) and up
@@ -56,7 +56,7 @@ def main(fast: bool = False, outdir=None) -> dict:
     lines = ["## Energy balance against the time step (koyna_smoke, 0.1 s at 3 x the strong "
              "phase)", "",
              "Residual = max |W_ext - (E_kin + E_bulk + E_damp + E_alg + E_stored + E_diss + "
-             "E_scaling)| / max |W_ext| over the run (docs/solver.md (energy budget)).", "",
+             "E_scaling)| / max |W_ext| over the run (docs/run.md §9).", "",
              "| run | dt [s] | residual / input work | E_scaling / input work | cuts | "
              "debonded [m] | wall [s] |", "|---|---|---|---|---|---|---|"]
     for k, r in rows.items():

@@ -1,4 +1,4 @@
-"""Every scene that passes ``--dry-run`` runs (issue 33): the smallest and the largest value each
+"""Every scene that passes ``--dry-run`` runs: the smallest and the largest value each
 key of the koyna schema allows, one key at a time on ``koyna_smoke``, checked by the dry run's
 validation and, when accepted, run for a few steps. A run may end in a solver failure (a
 ``SolverError``: exit 1 with its message, a physical outcome of an extreme value); any other
@@ -11,9 +11,9 @@ memory), and keys without a numeric range in the schema (strings, booleans, the 
 parameters, which interfacelaw's ranges check and ``test_bad_inputs`` covers).
 
 ``make verify`` runs every key: the 98 edges take 10-22 s (two steps each on the smallest
-scene; 9.3 s on an idle core, 22 s on the shared 2-core machine, 2026-11-26). The tests
-(``tests/test_safe_runs.py``) run the fast form: the ``FAST_KEYS`` (the keys of issue 33's
-faults, the materials whose edges crashed, one key of a few other sections; 18 edges, ~3 s).
+scene; 9.3 s on an idle core, 22 s on the shared 2-core machine). The tests
+(``tests/test_safe_runs.py``) run the fast form: the ``FAST_KEYS`` (the keys of the faults
+once found, the materials whose edges crashed, one key of a few other sections; 18 edges, ~3 s).
 """
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""Koyna 1967 under other records (issue 31, item 2): how the verdict of `koyna_1967` moves when
+"""Koyna 1967 under other records: how the verdict of `koyna_1967` moves when
 its SYNTHETIC record is replaced by recorded far-field motions scaled to the same peak.
 
 No digitised 1967 Koyna accelerogram is public (the shipped record is a synthetic stand-in,

@@ -28,7 +28,8 @@ sys.path.insert(0, str(ROOT))
 from ngs_driver.fe import geometry as geom  # noqa: E402
 from ngs_driver.scene import KOYNA_PROFILE  # noqa: E402
 from ngs_driver.fe.model import build_model, CLASSIC_KOYNA, PAPER_DAM  # noqa: E402
-from ngs_driver.fe.modal import modal_analysis, paper_k0  # noqa: E402
+from ngs_driver.fe.modal import modal_analysis  # noqa: E402
+from ngs_driver.setup.laws import paper_k0  # noqa: E402
 
 OUT = ROOT / "verification" / "out"
 

@@ -1,4 +1,4 @@
-"""Pine Flat dam (issue #23): our natural frequencies and fundamental resonances beside the
+"""Pine Flat dam: our natural frequencies and fundamental resonances beside the
 published ones, with the difference and what differs in the models.
 
 Section, materials and full pool from the public input file INPUT-PF4-DAMRes.TXT (see
@@ -12,7 +12,7 @@ ngs_driver/scenes/sections/pine_flat.csv). Published sources for this monolith:
 * Salamon et al., ICOLD 15th Benchmark Workshop (2019), Theme A (Springer 2021).
 
 The reports themselves could not be read from this machine (only their title pages are
-reachable). Two sets of numbers are compared, as the issue (#31) and Chopra's textbook quote
+reachable). Two sets of numbers are compared, as the public sources and Chopra's textbook quote
 them: the measured fundamental periods (0.288 s with 94.5 m of water, 0.306 s with 105.2 m)
 and Samii & Lotfi's coupled frequencies (2.5267, 3.2681, 4.6665 Hz). What is checked besides:
 the idealisations against each other and under refinement, our f1 against an independent
@@ -72,7 +72,8 @@ def frequencies(fast: bool) -> list[dict]:
     """f1, f2 with an empty reservoir: foundation x plane."""
     from ngs_driver.fe.model import build_from_scene
     from ngs_driver.apps.modal import run_modal  # noqa: F401  (the same path as `modal`)
-    from ngs_driver.fe.modal import k0_from_scene, modal_analysis
+    from ngs_driver.fe.modal import modal_analysis
+    from ngs_driver.setup import k0_from_scene
 
     rows = []
     for fnd in ("rigid", "massless", "massed"):
@@ -187,7 +188,7 @@ def _first_resonance(sc, eta, fast, f_lo=1.0, f_hi=5.0):
     import numpy as np
 
     from ngs_driver.fe.model import build_from_scene
-    from ngs_driver.fe.modal import k0_from_scene
+    from ngs_driver.setup import k0_from_scene
     from ngs_driver.fe.reservoir import frequency_response, resonance_peaks
 
     md = build_from_scene(sc)
@@ -241,7 +242,7 @@ def samii_lotfi(fast: bool) -> dict:
     import numpy as np
 
     from ngs_driver.fe.model import build_from_scene
-    from ngs_driver.fe.modal import k0_from_scene
+    from ngs_driver.setup import k0_from_scene
     from ngs_driver.fe.reservoir import frequency_response
 
     out = {}

@@ -75,7 +75,8 @@ def rigid_wall(lines, fast):
 
 
 def koyna_f1(lines, out):
-    from ngs_driver.fe.modal import k0_from_scene, modal_analysis
+    from ngs_driver.fe.modal import modal_analysis
+    from ngs_driver.setup import k0_from_scene
     from ngs_driver.apps.modal import run_modal
     from ngs_driver.fe.model import build_from_scene
     from ngs_driver.scene import load_scene

@@ -92,7 +92,7 @@ def release(sc, theta0=0.0, omega0=0.0, outdir=None):
     s.set_initial(u=s.u + theta0 * phi, v=omega0 * phi)
     f0 = a.f_static.copy()
     if a.rotation is not None:
-        f0 = f0 + a.rotation.before_step(s, 0.0, a.ax[0], a.ay[0])
+        f0 = f0 + a.rotation.step_load(s, 0.0, a.ax[0], a.ay[0])
     else:
         a.stop_rule.max_rotation = 10.0          # past the small kinematics' range, by hand
     s.set_initial(u=s.u)                         # the gap with the offset

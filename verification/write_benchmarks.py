@@ -72,7 +72,7 @@ def main(argv=None) -> int:
         out += ["", "## Koyna dam — not run", "",
                 "Not run here: `python verification/bench_koyna.py` writes "
                 "verification/out/bench_koyna.json, then rerun this script."]
-    # hand-written sections of other studies (IDA, law kernel, solver speed of issue #15, ...)
+    # hand-written sections of other studies (IDA, law kernel, solver speed, ...)
     # are kept as they are, after the generated ones
     if dst.exists():
         generated = ("## Ratios (same run)", "## Koyna dam — ", "## Koyna dam (issue #7)",

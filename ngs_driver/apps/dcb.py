@@ -27,6 +27,7 @@ an unconverged step is never accepted (the run stops, ``result.complete = False`
 """
 from __future__ import annotations
 
+import pathlib
 import time
 from dataclasses import dataclass, field
 
@@ -34,14 +35,12 @@ import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as sla
 
-import pathlib
-
 from interfacelaw import CohesiveParams, ContactParams, InterfaceLaw
 
-from ..post.files import atomic_write_json, atomic_write_text, environment_info
 from ..fe.coupling import block_diag, build_joint_operator
 from ..fe.model import Material
 from ..fe.ngs_helpers import find_vertex, to_scipy
+from ..post.files import atomic_write_json, atomic_write_text, environment_info
 
 CHI_KANNINEN = 0.64   # Kanninen (1973) beam on a Winkler foundation: 1/lambda = h / 6^(1/4)
 
@@ -144,6 +143,7 @@ def dcb_mesh(spec: DCBSpec, h_int: float, h_bulk: float | None = None,
     """Symmetric netgen mesh: the top arm is meshed (interface edge maxh = h_int, bulk
     maxh = h_bulk, default h/4), the bottom arm is its mirror image, sharing the y = 0
     vertices (the displacement fields of the two regions are independent anyway)."""
+    # deferred: NGSolve is optional: the package imports without it
     import ngsolve as ngs
     from netgen.geom2d import SplineGeometry
     from netgen.meshing import Mesh, MeshPoint, Element2D, Element1D, FaceDescriptor
@@ -226,6 +226,7 @@ def build_dcb(spec: DCBSpec = DCBSpec(), h_int: float = 0.02, n_gauss: int = 5,
               mesh=None) -> DCBProblem:
     """Mesh, bulk stiffness, joint operator (``fe.coupling.build_joint_operator``, matching mesh,
     ``n_gauss`` Gauss points per segment) and constraints of the DCB."""
+    # deferred: NGSolve is optional: the package imports without it
     import ngsolve as ngs
 
     if n_gauss < 1:

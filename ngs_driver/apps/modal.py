@@ -5,10 +5,13 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from ..fe.modal import damping_from_modes, k0_from_scene, modal_analysis
+from ..fe.modal import damping_from_modes, modal_analysis
+from ..fe.model import build_from_scene
+from ..fe.reservoir import modal_response
 from ..post.modal import write_frequency_response, write_modal_json
 from ..run.damping import modes_to_compute
 from ..run.joints import Joints
+from ..setup import joint_inputs, k0_from_scene
 from ..solve.joint_laws import initial_stiffness
 
 __all__ = ["run_modal", "MEASURED_PERIODS", "measured_comparison"]
@@ -54,13 +57,12 @@ def measured_comparison(scene, fundamental) -> list[dict]:
 def run_modal(scene, out_dir=None, n_modes: int = 6, model=None):
     """Build the scene's model, run the modal analysis, write ``modal.json`` to out_dir
     (default: scene.output.dir).  Returns (model, ModalResult, damping dict)."""
-    from ..fe.model import build_from_scene
 
     md = model if model is not None else build_from_scene(scene)
     kn, kt = k0_from_scene(scene)
     # each joint with its own initial stiffness (the base's alone without lift joints)
-    k0 = initial_stiffness(Joints(scene, md.interface).solver_law(), md.interface.npts)
-    res = modal_analysis(md, modes_to_compute(scene, n_modes), k0[:, 0], k0[:, 1])
+    k0 = initial_stiffness(Joints(joint_inputs(scene), md.interface).solver_law(), md.interface.npts)
+    res = modal_analysis(md, modes_to_compute(scene.damping, n_modes), k0[:, 0], k0[:, 1])
     d = scene.damping
     damp = damping_from_modes(res, d.ratio, d.modes, d.frequencies or None, d.model)
     out = Path(out_dir if out_dir is not None else scene.output.dir)
@@ -68,8 +70,7 @@ def run_modal(scene, out_dir=None, n_modes: int = 6, model=None):
              "plane": getattr(scene.materials, "plane", "strain"),
              "f1_hz": float(res.frequencies_hz[0])}
     if getattr(md, "reservoir", None) is not None:          # docs/reservoir.md
-        from ..fe.reservoir import modal_response
-        info, resp = modal_response(md, scene, kn, kt)
+        info, resp = modal_response(md, scene.damping.ratio, kn, kt)
         if resp is not None:
             info["frequency_response"] = write_frequency_response(out, scene, resp)
             info["measured"] = measured_comparison(

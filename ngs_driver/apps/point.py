@@ -13,6 +13,9 @@ import time
 
 import numpy as np
 
+from interfacelaw import drivers as dr
+from interfacelaw.drivers import cycles_to_failure
+
 from ..post.files import atomic_write_json, environment_info
 from ..setup import build_law, law_parts
 
@@ -24,7 +27,6 @@ def describe_point(scene) -> dict:
 
 
 def _path_history(law, p):
-    from interfacelaw import drivers as dr
     c = law.cohesive
     psi = math.radians(p.psi_deg)
     if p.type == "mode_I":
@@ -49,7 +51,6 @@ def _path_history(law, p):
 
 def run_point(scene, outdir) -> dict:
     """Drive one interface point along the scene's path; returns the summary dict."""
-    from interfacelaw.drivers import cycles_to_failure
     t0 = time.perf_counter()
     law = build_law(scene)
     h = _path_history(law, scene.path)
@@ -59,6 +60,7 @@ def run_point(scene, outdir) -> dict:
     h.to_csv(out / "history.csv")
     files = ["history.csv"]
     try:
+        # deferred: matplotlib loads only when a figure is drawn
         import matplotlib
         matplotlib.use("Agg")
         import matplotlib.pyplot as plt

@@ -35,6 +35,7 @@ import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spl
 
+from .face import dam_normal_trial_test, face_normal_cf
 from .ngs_helpers import to_scipy, vec
 
 WATER = "water"
@@ -48,6 +49,7 @@ BOUNDARIES = ("free_surface", "reservoir_bottom", "far_end")
 def _water_geometry(face_pts, L, h_max, grading=0.5):
     """Netgen geometry of the water polygon; face_pts from the heel up to the water line, each
     face edge one segment (maxh = its length, so netgen keeps the dam's face vertices)."""
+    # deferred: NGSolve is optional: the package imports without it
     from netgen.geom2d import SplineGeometry
 
     geo = SplineGeometry()
@@ -77,6 +79,7 @@ def _water_geometry(face_pts, L, h_max, grading=0.5):
 def rectangle_water_mesh(H: float, L: float, h_face: float, h_max: float, grading=0.3):
     """Water only (verification): x in [-L, 0], y in [0, H]; the rigid wall x = 0 is the
     boundary "upstream", uniformly divided with h_face.  Returns an ngsolve.Mesh."""
+    # deferred: NGSolve is optional: the package imports without it
     import ngsolve as ngs
 
     n = max(2, int(math.ceil(H / h_face)))
@@ -113,6 +116,7 @@ def add_water(mesh, res, h_max: float | None = None):
     (rock,) water.  New boundaries: "free_surface", "reservoir_bottom", "far_end".  The water
     bottom (y = 0) is not connected to the rock: the bottom is a rigid/absorbing boundary that
     moves with the ground (Fenves & Chopra's reservoir-bottom model)."""
+    # deferred: NGSolve is optional: the package imports without it
     import ngsolve as ngs
     from netgen.csg import Pnt
     from netgen.meshing import Element1D, Element2D, FaceDescriptor, Mesh, MeshPoint
@@ -160,7 +164,7 @@ def add_water(mesh, res, h_max: float | None = None):
     # as above; the wetted face gets the water on its other side); without them NGSolve could
     # not tell the blocks' boundaries apart, and a block's space (definedon) took the vertices
     # of every block's outer boundary: with a lift joint below the water line the stiffness
-    # was singular (issue #23, koyna_1967).
+    # was singular (koyna_1967).
     from netgen.meshing import EdgeDescriptor
 
     eds = list(src.EdgeDescriptors())
@@ -229,6 +233,7 @@ class WaterMatrices:
 
 def water_matrices(mesh, c: float, compressible: bool, alpha: float, far_end: str,
                    order: int = 1) -> WaterMatrices:
+    # deferred: NGSolve is optional: the package imports without it
     import ngsolve as ngs
 
     q = bottom_q(alpha, c) if compressible else 0.0
@@ -282,7 +287,6 @@ def water_matrices(mesh, c: float, compressible: bool, alpha: float, far_end: st
         f.Assemble()
         return vec(f)[free]
 
-    from .face import face_normal_cf
     n = face_normal_cf()
     # out of the water: bottom n = (0, -1), far end n = (-1, 0)
     b_y = -lin(s * ngs.ds("reservoir_bottom")) if not math.isinf(q) else np.zeros(nf)
@@ -335,8 +339,8 @@ class PressureProbe:
     (``pressure_at`` searches the mesh at every call)."""
 
     def __init__(self, W: WaterMatrices, pts):
+        # deferred: NGSolve is optional: the package imports without it
         import ngsolve as ngs
-        import scipy.sparse as sp
 
         self.W = W
         Vp = W.Vp
@@ -367,6 +371,7 @@ class PressureProbe:
 
 def pressure_at(W: WaterMatrices, p_free: np.ndarray, pts):
     """Evaluate a pressure vector at points [(x, y)] of the water mesh (real part)."""
+    # deferred: NGSolve is optional: the package imports without it
     import ngsolve as ngs
 
     gf = ngs.GridFunction(W.Vp)
@@ -404,9 +409,9 @@ class AcousticReservoir:
 
     @classmethod
     def build(cls, res, mesh, fes, free, rho, components=None, order=1, bands=None):
+        # deferred: NGSolve is optional: the package imports without it
         import ngsolve as ngs
 
-        from .face import dam_normal_trial_test
 
         W = water_matrices(mesh, res.sound_speed, res.compressible, res.bottom_reflection,
                            res.far_end, order=1)
@@ -431,6 +436,7 @@ class AcousticReservoir:
 
     @staticmethod
     def _influence(fes, components, free, d):
+        # deferred: NGSolve is optional: the package imports without it
         import ngsolve as ngs
 
         gf = ngs.GridFunction(fes)

@@ -17,6 +17,7 @@ def block_rigid_modes(model) -> tuple[np.ndarray, np.ndarray]:
     "rock", bottom up), the free-DOF vectors of u = (1, 0), (0, 1) and (-(y - y_c), x - x_c)
     on that block and 0 elsewhere; centroids (n_blocks, 2) the (x_c, y_c) of each block (P1/Pk
     interpolation of a linear field is exact)."""
+    # deferred: NGSolve is optional: the package imports without it
     import ngsolve as ngs
 
     blocks = [k for k, r in enumerate(model.regions) if r != "rock"]

@@ -105,6 +105,7 @@ def build_joint_operator(mesh, fes, Vd, Vr, free, n_gauss: int, foundation: str,
     upper / lower: indices of the fields above and below the joint in the product space
     ``fes`` (lower None: the fixed ground); the gap is u_upper - u_lower at the points of the
     internal boundary ``boundary``. rock_offset: first DOF of the lower field (non-matching)."""
+    # deferred: NGSolve is optional: the package imports without it
     import ngsolve as ngs
     from ngsolve.comp import IntegrationRuleSpaceSurface
 
@@ -196,6 +197,7 @@ def build_joint_operator(mesh, fes, Vd, Vr, free, n_gauss: int, foundation: str,
 
 def _p1_segments(mesh, V, boundary):
     """[(vertex coordinates (2, 2), (x dof, y dof) per vertex)] of the boundary's segments."""
+    # deferred: NGSolve is optional: the package imports without it
     import ngsolve as ngs
     segs = []
     for el in mesh.Boundaries(boundary).Elements():

@@ -9,6 +9,7 @@ def face_normal_cf():
     """Unit normal of the upstream face pointing from the water into the dam (+x side): the
     mesh normal's sign is not reliable on internal or merged boundaries, so it is fixed by its
     x-component (an upstream face that the water can wet has n_x != 0)."""
+    # deferred: NGSolve is optional: the package imports without it
     import ngsolve as ngs
 
     n = ngs.specialcf.normal(2)
@@ -23,6 +24,7 @@ def dam_normal_trial_test(fes, components, bands=None):
     (bands: [(y_lo, y_hi)] per component): a block's field also has a trace on the face edges
     next to its joint vertex, which would count that edge twice (measured: Q^T r_x off by 20 %
     at the joint's pressure DOF)."""
+    # deferred: NGSolve is optional: the package imports without it
     import ngsolve as ngs
 
     n = face_normal_cf()

@@ -12,6 +12,8 @@ import math
 import numpy as np
 import scipy.sparse as sp
 
+from .ngs_helpers import to_scipy, vec
+
 __all__ = ["wave_speeds", "dashpot_matrix", "AbsorbingRock"]
 
 
@@ -36,9 +38,9 @@ def dashpot_matrix(mesh, fes, free, boundaries: str, E: float, nu: float, rho: f
     -rho c_P (v.n) n - rho c_S (v.t) t, i.e. the matrix integral of rho (c_P n n^T +
     c_S (I - n n^T)) u . v (independent of the normal's sign). ``field``: the component of a
     product space that carries the region (None: a single space). Restricted to ``free``."""
+    # deferred: NGSolve is optional: the package imports without it
     import ngsolve as ngs
 
-    from .ngs_helpers import to_scipy
 
     cp, cs = wave_speeds(E, nu, rho, plane)
     u, v = fes.TnT()
@@ -69,9 +71,9 @@ class AbsorbingRock:
     applied as constant forces."""
 
     def __init__(self, model, rock, gm, t0: float = 0.0):
+        # deferred: NGSolve is optional: the package imports without it
         import ngsolve as ngs
 
-        from .ngs_helpers import to_scipy, vec
 
         mesh, fes, free = model.mesh, model.fes, model.free
         k = len(model.regions) - 1                     # the rock field (last)

@@ -118,6 +118,7 @@ def dam_mesh(section, joints=(), foundation: str = "rock", h_heel: float = 0.1,
     named "interface_rock"; the two regions then share no vertex.
     Returns an ``ngsolve.Mesh`` and a ``MeshInfo``.
     """
+    # deferred: NGSolve is optional: the package imports without it
     import ngsolve as ngs
 
     if foundation not in ("rock", "rigid"):
@@ -167,6 +168,7 @@ def _dam_geometry(section, joints, foundation, h_heel, h_coarse, h_int, growth, 
     Points are appended in a fixed order (base stations, toe, the other profile vertices,
     upstream-face stations, joint points): for the Koyna profile without joints this is the
     order of the original Koyna mesher, so the mesh (and every result) is unchanged."""
+    # deferred: NGSolve is optional: the package imports without it
     from netgen.geom2d import SplineGeometry
 
     P = section.vertices
@@ -287,6 +289,7 @@ def _dam_geometry(section, joints, foundation, h_heel, h_coarse, h_int, growth, 
 
 
 def _rock_only(W, h_heel, h_coarse, h_int, growth, eu, ed, edep, grading, heel_zone=0.0):
+    # deferred: NGSolve is optional: the package imports without it
     from netgen.geom2d import SplineGeometry
 
     geo = SplineGeometry()
@@ -321,6 +324,7 @@ def merge_meshes(*ngmeshes):
     """Merge 2D netgen meshes into one netgen mesh WITHOUT identifying coincident
     vertices (regions and boundary names are merged by name).  Used for non-matching
     interfaces: the parts share no vertex, each keeps its own interface segments."""
+    # deferred: NGSolve is optional: the package imports without it
     from netgen.meshing import Mesh, MeshPoint, Element2D, Element1D, FaceDescriptor
     from netgen.csg import Pnt
 
@@ -368,6 +372,7 @@ def two_block_mesh(width: float = 1.0, h_top: float = 0.5, h_bot: float = 0.5,
     "rock_bottom".  Structured triangles (two per quad) so that the patch test is
     independent of netgen.  Pass n_top == n_bot for a matching (but still duplicated
     node) interface.  Returns an ``ngsolve.Mesh``."""
+    # deferred: NGSolve is optional: the package imports without it
     import ngsolve as ngs
     from netgen.meshing import Mesh, MeshPoint, Element2D, Element1D, FaceDescriptor
     from netgen.csg import Pnt

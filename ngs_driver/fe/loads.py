@@ -2,6 +2,8 @@
 hydrostatic tailwater (USACE EM 1110-2-2100 §3-3; docs/safety.md)."""
 from __future__ import annotations
 
+from .ngs_helpers import vec
+
 __all__ = ["tailwater_load"]
 
 
@@ -11,9 +13,9 @@ def tailwater_load(model, level: float, rho_w: float, gravity: float):
     dam's outward normal (n_x > 0 on the downstream face)."""
     if level <= 0.0:
         return None
+    # deferred: NGSolve is optional: the package imports without it
     import ngsolve as ngs
 
-    from .ngs_helpers import vec
 
     test = model.fes.TestFunction()
     test = tuple(test) if isinstance(test, (list, tuple)) else (test,)

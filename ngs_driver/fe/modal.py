@@ -2,7 +2,7 @@
 
 The bonded interface is the linear spring layer B^T diag(w k0) B with the initial elastic
 stiffness of the interface law; for the paper's law k0 = sigma_max / (lambda_max l_Nc),
-l_Nc = 2 G_I / sigma_max (``paper_k0``).
+l_Nc = 2 G_I / sigma_max (``setup.laws.paper_k0``).
 """
 
 from __future__ import annotations
@@ -13,16 +13,6 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse.linalg as sla
 
-
-def paper_k0(sigma_max: float = 3e6, tau_max: float = 3e6, G_I: float = 250.0,
-             lambda_max: float = 0.2, ratio_lTc_lNc: float = 1.0) -> tuple[float, float]:
-    """Initial (bonded) stiffness [Pa/m] (normal, tangential) of the paper's law:
-    k_N = sigma_max/(lambda_max l_Nc), k_T = tau_max l_Nc/(lambda_max l_Tc^2),
-    l_Nc = 2 G_I/sigma_max, l_Tc = ratio l_Nc (docs/law.md §2).
-    Paper values: 3e6 / (0.2 * 1.667e-4) = 9.0e10 Pa/m."""
-    l_nc = 2.0 * G_I / sigma_max
-    l_tc = ratio_lTc_lNc * l_nc
-    return sigma_max / (lambda_max * l_nc), tau_max * l_nc / (lambda_max * l_tc ** 2)
 
 
 @dataclass
@@ -110,14 +100,3 @@ def damping_from_modes(res: ModalResult, ratio: float = 0.05, modes=(1, 3),
     return {"model": model, "a0": a0, "a1": a1, "ratio": ratio, "f_a": fa, "f_b": fb,
             "source": src,
             "ratio_at_modes": [float(z) for z in rayleigh_ratio(res.frequencies_hz, a0, a1)]}
-
-
-def k0_from_scene(scene) -> tuple[float, float]:
-    """(k_N, k_T) [Pa/m] of the bonded base joint under its dam's weight: the compressive
-    stiffness ``interface.contact_stiffness`` (the cohesive one without contact) and the
-    cohesive shear stiffness (``solve.joint_laws.law_stiffness`` of the scene's law)."""
-    i = scene.interface
-    kn, kt = paper_k0(i.sigma_max, i.tau_max, i.G_I, i.lambda_max, i.ratio_lTc_lNc)
-    if i.contact != "none":
-        kn = float(i.contact_stiffness)
-    return kn, kt

@@ -23,12 +23,16 @@ from typing import Any
 
 import numpy as np
 import scipy.sparse as sp
+import scipy.sparse.linalg as sla
 
-from . import geometry as geom
 from ..scene import KOYNA_PROFILE
 from ..section import Section
+from ..setup import model_inputs
+from . import geometry as geom
+from .acoustic import add_water
 from .coupling import JointOperator, build_joint_operator, stack_joint_operators
 from .ngs_helpers import find_vertex, to_scipy, vec, vertex_xy_dofs
+from .reservoir import build_reservoir
 
 G_STANDARD = 9.81
 
@@ -116,6 +120,7 @@ class Model:
     # --- NGSolve views -----------------------------------------------------------------
     def to_gridfunction(self, u_free: np.ndarray, gf=None):
         """Full NGSolve GridFunction (zeros on fixed DOFs) from a free-DOF vector."""
+        # deferred: NGSolve is optional: the package imports without it
         import ngsolve as ngs
 
         if gf is None:
@@ -128,6 +133,7 @@ class Model:
     def displacement_cf(self, gf):
         """Displacement as one CoefficientFunction on the whole mesh (each region its own
         field; on the interface itself the value is side-dependent)."""
+        # deferred: NGSolve is optional: the package imports without it
         import ngsolve as ngs
 
         if len(self.regions) == 1:
@@ -136,6 +142,7 @@ class Model:
                                     default=ngs.CF((0, 0)))
 
     def strain_cf(self, gf):
+        # deferred: NGSolve is optional: the package imports without it
         import ngsolve as ngs
 
         if len(self.regions) == 1:
@@ -145,6 +152,7 @@ class Model:
 
     def stress_cf(self, gf):
         """In-plane Cauchy stress (plane strain or stress, per region), 2x2 CoefficientFunction."""
+        # deferred: NGSolve is optional: the package imports without it
         import ngsolve as ngs
 
         lam, mu = self._lame_cfs()
@@ -154,6 +162,7 @@ class Model:
     def von_mises(self, gf):
         """Von Mises stress [Pa] (plane strain: sigma_zz = nu (sigma_xx + sigma_yy); plane
         stress: sigma_zz = 0)."""
+        # deferred: NGSolve is optional: the package imports without it
         import ngsolve as ngs
 
         s = self.stress_cf(gf)
@@ -172,7 +181,6 @@ class Model:
     def static_solution(self, k_normal: float, k_tangential: float,
                         loads: str = "gravity+water") -> np.ndarray:
         """Static displacement with a linear elastic (bonded) interface."""
-        import scipy.sparse.linalg as sla
 
         f = np.zeros(self.nfree)
         if "gravity" in loads:
@@ -222,6 +230,7 @@ def build_model(foundation: str = "rock", order: int = 1, gauss_points: int = 3,
     include_rock_weight: add the rock self weight to f_gravity (default False: the
     in-situ state of the rock predates the dam).
     """
+    # deferred: NGSolve is optional: the package imports without it
     import ngsolve as ngs
 
     if rock_sides not in ("fixed", "roller", "free", "absorbing"):
@@ -252,7 +261,6 @@ def build_model(foundation: str = "rock", order: int = 1, gauss_points: int = 3,
                                   float("nan"), float("nan"), float("nan"), mesh.nv, mesh.ne,
                                   nseg)
     if reservoir is not None and reservoir.model == "acoustic":
-        from .acoustic import add_water        # region "water" glued to the upstream face
         mesh = add_water(mesh, reservoir)
     bnds = set(mesh.GetBoundaries())
     matching = "interface_rock" not in bnds
@@ -318,7 +326,6 @@ def build_model(foundation: str = "rock", order: int = 1, gauss_points: int = 3,
         M = sp.diags(np.asarray(M.sum(axis=1)).ravel()).tocsr()
     res_model = None
     if reservoir is not None and reservoir.model != "none":
-        from .reservoir import build_reservoir
         comps = [k for k, r in enumerate(mats) if r != "rock"]     # dam fields, fes order
         res_model = build_reservoir(reservoir, mesh, fes, free, water_density,
                                     None if len(mats) == 1 else comps,
@@ -412,31 +419,22 @@ def top_left(mesh, region: str) -> tuple[float, float]:
     return (p[0], p[1])
 
 
-def model_kwargs(scene) -> dict:
-    """Keyword arguments of ``build_model`` for a ``scene.Scene``."""
-    g, m, L = scene.geometry, scene.mesh, scene.loads
+def model_kwargs(inputs) -> dict:
+    """Keyword arguments of ``build_model`` for the ``setup.ModelInputs`` of a scene."""
+    kw = dict(inputs.options)
+    kw.update(section=inputs.section,
+              joints=tuple(geom.JointCut(*j) for j in inputs.joints),
+              **{r: Material(*v) for r, v in inputs.materials.items()})
+    return kw
 
-    def mat(region):
-        d = getattr(scene.materials, region)
-        return Material(d.E, d.nu, d.rho, getattr(scene.materials, "plane", "strain"))
 
-    joints = tuple(geom.JointCut(j.name, j.elevation, j.h_end or m.h_heel,
-                                  j.h_joint or m.h_interface) for j in scene.joints)
-    return dict(section=scene.section, joints=joints,
-                foundation=g.foundation, order=m.order, gauss_points=m.gauss_points,
-                dam=mat("dam"), rock=mat("rock"),
-                gravity=L.gravity, reservoir_level=L.reservoir_level,
-                water_density=L.water_density, lumped_mass=m.lumped_mass,
-                reservoir=getattr(scene, "reservoir", None),
-                rock_sides=g.rock_sides, include_rock_weight=L.rock_weight,
-                h_heel=m.h_heel, h_coarse=m.h_coarse, h_interface=m.h_interface,
-                heel_zone=m.heel_zone, growth=m.growth, grading=m.grading,
-                extent_up=g.extent_up, extent_down=g.extent_down,
-                extent_depth=g.extent_depth, matching=g.matching)
+def build_from_inputs(inputs, **overrides) -> Model:
+    """``build_model`` of a scene's ``setup.ModelInputs`` (keyword arguments overridable)."""
+    kw = model_kwargs(inputs)
+    kw.update(overrides)
+    return build_model(**kw)
 
 
 def build_from_scene(scene, **overrides) -> Model:
-    """``build_model`` with the keyword arguments of a ``scene.Scene`` (overridable)."""
-    kw = model_kwargs(scene)
-    kw.update(overrides)
-    return build_model(**kw)
+    """``build_from_inputs`` of ``setup.model_inputs(scene)`` (the scene is resolved there)."""
+    return build_from_inputs(model_inputs(scene), **overrides)

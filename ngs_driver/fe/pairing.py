@@ -25,6 +25,8 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse as sp
 
+from .ngs_helpers import vertex_xy_dofs
+
 __all__ = ["LowerFace", "lower_faces", "upper_columns"]
 
 
@@ -99,9 +101,9 @@ def lower_faces(model) -> dict:
     """{joint name: (upper region, LowerFace or None)} for every joint, the base first. None:
     nothing to pair (a rigid foundation under the base, or a mesh of order > 1, whose faces
     this module does not interpolate: such a joint keeps its initial pairing)."""
+    # deferred: NGSolve is optional: the package imports without it
     import ngsolve as ngs
 
-    from .ngs_helpers import vertex_xy_dofs
 
     comps, off = _field_offsets(model)
     inv = -np.ones(model.fes.ndof, dtype=np.int64)

@@ -16,8 +16,11 @@ from typing import Any
 
 import numpy as np
 import scipy.sparse as sp
+import scipy.sparse.linalg as spl
 
+from .acoustic import AcousticReservoir
 from .face import dam_normal_trial_test, region_bands
+from .modal import modal_analysis
 from .ngs_helpers import to_scipy
 
 # quadrature: sqrt(H - y) has an unbounded derivative at the water line (a mesh vertex), so the
@@ -55,6 +58,7 @@ def westergaard_added_mass(fes, free: np.ndarray, level: float, water_density: f
 
     fes: the model's space (components: indices of the dam fields in a product space, None
     for the dam space alone)."""
+    # deferred: NGSolve is optional: the package imports without it
     import ngsolve as ngs
 
     H = float(level)
@@ -82,7 +86,6 @@ def build_reservoir(res, mesh, fes, free, water_density, components=None, region
                                     bands=bands)
         return ReservoirModel("westergaard", res.level, water_density, added_mass=Ma,
                               info={"model": "westergaard", "level": res.level})
-    from .acoustic import AcousticReservoir
 
     ac = AcousticReservoir.build(res, mesh, fes, free, water_density, components,
                                 bands=bands, **acoustic_kw)
@@ -104,7 +107,6 @@ def frequency_response(model, k0_normal, k0_tangential, freqs_hz, eta: float = 0
     water: "compressible" (the acoustic reservoir), "incompressible" (G = C_f = 0) or "none"
     (Q = 0).  M here is the structural mass (without any added mass).  Returns the complex
     crest x-displacement relative to the ground and the total crest acceleration / a_g."""
-    import scipy.sparse.linalg as spl
 
     res = model.reservoir
     ac = res.acoustic
@@ -170,12 +172,13 @@ def resonance_peaks(f, amp, min_prominence: float = 0.05) -> dict:
     return out
 
 
-def modal_response(model, scene, k0_normal, k0_tangential) -> tuple[dict, dict | None]:
+def modal_response(model, damping_ratio, k0_normal, k0_tangential) -> tuple[dict, dict | None]:
     """What ``modal`` reports about the reservoir, and for compressible acoustic water the crest
     frequency response (else None): {"f": frequencies [Hz], "f_dry": the first frequency
     without water, "eta": hysteretic damping, "curves": {"none" | "incompressible" |
     "compressible": crest acceleration / a_g}, "peak_hz", "f1_reservoir_hz": c / 4H}. The
-    files are written by ``post.modal.write_frequency_response``."""
+    files are written by ``post.modal.write_frequency_response``. damping_ratio: the scene's
+    ``damping.ratio`` (eta = 2 ratio)."""
     res = model.reservoir
     d = dict(res.info)
     d["kind"] = res.kind
@@ -184,12 +187,11 @@ def modal_response(model, scene, k0_normal, k0_tangential) -> tuple[dict, dict |
                      + ("Westergaard" if res.kind == "westergaard" else
                         "incompressible acoustic water, condensed exactly") + ")")
         return d, None
-    from .modal import modal_analysis
     d["note"] = ("compressible water: frequencies_hz are those of the dam without water; the "
                  "coupled system is frequency dependent, see frequency_response")
     f_dry = modal_analysis(model, 1, k0_normal, k0_tangential).frequencies_hz[0]
     f = np.linspace(0.3 * f_dry, 3.5 * f_dry, 240)
-    eta = 2 * scene.damping.ratio
+    eta = 2 * damping_ratio
     curves = {k: frequency_response(model, k0_normal, k0_tangential, f, eta, k)[1]
               for k in ("none", "incompressible", "compressible")}
     peaks = {k: float(f[int(np.argmax(np.abs(v)))]) for k, v in curves.items()}

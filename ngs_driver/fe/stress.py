@@ -6,6 +6,9 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+import scipy.sparse as sp
+
+from .ngs_helpers import to_scipy, vec
 
 __all__ = ["ElementStress", "element_stress"]
 
@@ -21,10 +24,9 @@ class ElementStress:
 def element_stress(model) -> ElementStress:
     """The constant stress of every dam element (rock excluded) as S u: the L2 projection of
     sigma(u) onto piecewise constants (exact for P1), element by element."""
+    # deferred: NGSolve is optional: the package imports without it
     import ngsolve as ngs
-    import scipy.sparse as sp
 
-    from .ngs_helpers import to_scipy, vec
 
     mesh, fes, free = model.mesh, model.fes, model.free
     trial = fes.TrialFunction()

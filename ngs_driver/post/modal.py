@@ -36,6 +36,7 @@ def write_frequency_response(out, scene, resp: dict) -> dict:
             fh.write(f"{fi:.6g},{fi / f_dry:.6g}," + ",".join(
                 f"{abs(curves[k][i]):.6g}" for k in ("none", "incompressible",
                                                       "compressible")) + "\n")
+    # deferred: matplotlib loads only when a figure is drawn
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt

@@ -5,6 +5,11 @@ text for the log. ``plots=False`` keeps the CSV files and results.md, without PN
 from __future__ import annotations
 
 from ..run.outputs import Outputs
+from .report import format_summary
+from .reservoir import WaterVTK, write_reservoir_outputs
+from .results import write_run_outputs
+from .safety_plots import write_safety_outputs
+from .vtk import VTKWriter
 
 __all__ = ["RunOutputs"]
 
@@ -18,11 +23,9 @@ class RunOutputs(Outputs):
     def start(self, a) -> None:
         if not (self.plots and a.scene.output.vtk_every > 0):
             return
-        from .vtk import VTKWriter
         self.vtk = VTKWriter(a.model, a.out / "vtk" / "dam", a.joints)
         ac = None if a.reservoir is None else a.reservoir.ac
         if ac is not None:
-            from .reservoir import WaterVTK
             self.water_vtk = WaterVTK(a.out, ac)
 
     def step(self, a, k: int, t: float) -> None:
@@ -35,7 +38,6 @@ class RunOutputs(Outputs):
         self.vtk.write(a.solver.u, t, a.solver)
 
     def results(self, a, H: dict) -> list[str]:
-        from .results import write_run_outputs
         files = write_run_outputs(a.out, a.model, a.scene, a.gm, H, a.snapshots.data, a.solver,
                                   a.u_static, a.joints, plots=self.plots, heel=a.heel)
         if self.vtk is not None:
@@ -43,15 +45,12 @@ class RunOutputs(Outputs):
         if self.water_vtk is not None:
             files.extend(f"vtk/{f}" for f in self.water_vtk.files)
         if a.reservoir is not None:
-            from .reservoir import write_reservoir_outputs
             files.extend(write_reservoir_outputs(a.out, a.reservoir, self.plots))
         return files
 
     def safety(self, a, H: dict, post: dict, safety_summary: dict) -> list[str]:
-        from .safety_plots import write_safety_outputs
         return write_safety_outputs(a.out, a.scene, a.gm, H, a.static_info.get("joints"), post,
                                     safety_summary, plots=self.plots, screening=a.screening)
 
     def report(self, summary: dict) -> str:
-        from .report import format_summary
         return format_summary(summary)

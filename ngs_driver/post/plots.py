@@ -21,6 +21,7 @@ def subplots(*args, figsize=None, **kw):
     """``matplotlib.pyplot.subplots`` without pyplot: a bare ``Figure`` (rendered by Agg when
     saved to PNG; nothing to close) and its axes. pyplot's import and figure manager cost a
     run ~0.3 s and are not needed to write files."""
+    # deferred: matplotlib loads only when a figure is drawn
     from matplotlib.figure import Figure
     fig = Figure(figsize=figsize)
     return fig, fig.subplots(*args, **kw)
@@ -46,6 +47,7 @@ def _savefig(fig, path, dpi=130):
     twice, the first time only to measure it; here the box is measured on the Agg renderer at
     the output dpi without that draw (same box and padding: the PNGs of a Koyna run are
     pixel-identical, 0.4 s less over a run's figures)."""
+    # deferred: matplotlib loads only when a figure is drawn
     from matplotlib import rcParams
     from matplotlib.backends.backend_agg import FigureCanvasAgg
 
@@ -79,6 +81,7 @@ def plot_crest(path, series, title):
 def plot_damage_profiles(path, panels, title, xmax=None):
     """Fig. 11 style: D(x) along the interface at several times.
     panels: [(panel title, x, times, [D arrays]), ...] (one subplot each)."""
+    # deferred: matplotlib loads only when a figure is drawn
     from matplotlib import colormaps
     n = len(panels)
     fig, axs = subplots(1, n, figsize=(6 * n, 4.2), squeeze=False)
@@ -182,6 +185,7 @@ def mesh_triangles(mesh):
     element order. From netgen's arrays (~1 ms) when every element is a triangle whose
     first three nodes are NGSolve vertices (netgen point i = vertex i - 1 ... checked);
     otherwise by NGSolve's element loop (~0.07 s on the default Koyna mesh)."""
+    # deferred: NGSolve is optional: the package imports without it
     import ngsolve as ngs
 
     try:

@@ -11,6 +11,7 @@ import pathlib
 import numpy as np
 
 from .files import atomic_write_text
+from .plots import save_png, subplots
 
 __all__ = ["WaterVTK", "write_reservoir_outputs"]
 
@@ -25,6 +26,7 @@ class WaterVTK:
         self.files = []
 
     def write(self, p, t):
+        # deferred: NGSolve is optional: the package imports without it
         import ngsolve as ngs
         W = self.W
         gf = ngs.GridFunction(W.Vp)
@@ -50,7 +52,6 @@ def write_reservoir_outputs(out, rr, plots=True) -> list[str]:
     atomic_write_text(out / "reservoir_pressure.csv", fh.getvalue())
     files = ["reservoir_pressure.csv"]
     if plots and rr.rows["t"]:
-        from .plots import save_png, subplots
         fig, (a1, a2) = subplots(2, 1, figsize=(8, 6), sharex=True)
         t = np.asarray(rr.rows["t"])
         for y in rr.ys:

@@ -5,6 +5,7 @@ import pathlib
 
 import numpy as np
 
+from ..setup import FORMULATION
 from . import plots as P
 from .files import write_damage_csv, write_timeseries_csv
 
@@ -14,7 +15,6 @@ __all__ = ["write_run_outputs"]
 def write_run_outputs(out, model, scene, gm, H, snaps, solver, u_static, joints,
                       plots=True, heel=None):
     """CSV + PNG of one run; returns the list of file names written."""
-    from ..setup import FORMULATION
 
     out = pathlib.Path(out)
     lab = gm.label + (" [SYNTHETIC record]" if gm.synthetic else "")
@@ -31,7 +31,7 @@ def write_run_outputs(out, model, scene, gm, H, snaps, solver, u_static, joints,
                                 "crack_length_heel = contiguous debonded length from the heel; "
                                 "<joint>_* the same per joint (crack_length_upstream from its "
                                 "upstream end); energy terms [J/m] from the static state "
-                                "(docs/solver.md §9)"])
+                                "(docs/run.md §9)"])
     files.append("timeseries.csv")
     iface = model.interface
     for name, sl in zip(joints.names, joints.slices):

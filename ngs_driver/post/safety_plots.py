@@ -6,6 +6,7 @@ import pathlib
 import numpy as np
 
 from .files import atomic_write_text
+from .plots import save_png, subplots
 
 __all__ = ["write_safety_outputs", "safety_markdown", "plot_sliding_fs"]
 
@@ -17,7 +18,6 @@ def _fmt(v, f="{:.4g}"):
 def plot_sliding_fs(path, H, static_joints, post, title, criterion=1.3):
     """FS(t) per joint (static value at t = 0, post-earthquake value after the record) and the
     base's N', T, U."""
-    from .plots import save_png, subplots
 
     names = [k[:-len("_sliding_fs")] for k in H if k.endswith("_sliding_fs")]
     t = H["t"]
@@ -83,9 +83,9 @@ def safety_markdown(scene, static_joints, post, safety_sum) -> str:
 
 def plot_screening(path, scr, title):
     """Map of the maximum DCR over the record per dam element, the worst element marked."""
+    # deferred: matplotlib loads only when a figure is drawn
     from matplotlib.collections import PolyCollection
 
-    from .plots import save_png, subplots
 
     s = scr.summary()
     fig, ax = subplots(figsize=(6, 7))

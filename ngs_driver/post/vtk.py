@@ -8,6 +8,7 @@ import pathlib
 
 import numpy as np
 
+from ..fe.pairing import upper_columns
 from .files import atomic_write_text
 
 __all__ = ["VTKWriter"]
@@ -40,6 +41,7 @@ def _pvd(entries) -> str:
 
 class VTKWriter:
     def __init__(self, model, filename, joints=None):
+        # deferred: NGSolve is optional: the package imports without it
         import ngsolve as ngs
 
         self.model = model
@@ -58,7 +60,6 @@ class VTKWriter:
         # the block above the joint): ParaView's "Warp By Vector" draws the deformed joint
         self.upper = {}
         if joints is not None:
-            from ..fe.pairing import upper_columns
             blocks = [r for r in model.regions if r != "rock"]
             B = model.interface.B
             for k, (name, sl) in enumerate(zip(joints.names, joints.slices)):

@@ -8,7 +8,8 @@
     summary = a.finish()       # outputs, post-earthquake check, summary.json
 
 ``prepare`` validates the scene (``setup.validate``: laws, record) before anything is
-written, builds the model (``fe.model.build_from_scene``: the section, its lift joints, the
+written, resolves it (``setup.resolve``: the run's typed inputs; below ``setup`` nothing reads
+the scene), builds the model (``fe.model.build_from_inputs``: the section, its lift joints, the
 foundation), one interface law per joint with its size-scale state (``run.joints``), Rayleigh
 damping from the modal analysis (``run.damping``) and the condensed ``JointSolver`` (all
 joints in one gap vector). The static state (dead load + reservoir + tailwater + uplift) is
@@ -19,9 +20,9 @@ load
 
 (relative formulation: rock bottom fixed, displacements relative to the rigid ground motion;
 with absorbing rock boundaries the displacements are total and the record enters as
-free-field forces, ``fe.foundation.AbsorbingRock``). Every step records the crest, the
-solver's work, each joint's measures, its sliding safety and the energy budget
-(``run.energy``) in the history (``run.history``).
+free-field forces, ``fe.foundation.AbsorbingRock``). After each step's solve the run's parts
+(``run.parts``: measures, safety, energy, history, size scale, pairing, snapshots, outputs,
+collapse rule, checkpoints, ...) each do their job in turn (docs/run.md §3).
 
 Files: the run writes its own -- summary.json (last, atomically), final_state.npz,
 checkpoint.json + checkpoint_<step>.npz every ``output.checkpoint_every`` steps, one set
@@ -35,31 +36,45 @@ PNGs, optional VTK); ``apps.dam.run`` is the whole run with those.
 """
 from __future__ import annotations
 
+import dataclasses
 import pathlib
 import time
 
 import numpy as np
 from numba import njit
 
-from .store import atomic_savez, atomic_write_json, environment_info
-from ..setup import FORMULATION, characteristic_times, law_parts, validate, window_note
-from ..solve.joint_laws import initial_stiffness, law_stiffness
+from ..fe.foundation import AbsorbingRock
+from ..fe.loads import tailwater_load
+from ..fe.model import build_from_inputs
+from ..fe.modal import modal_analysis
+from ..setup import FORMULATION, model_inputs, resolve, validate
+from ..solve.integrator import Integrator
+from ..solve.joint_laws import initial_stiffness
+from ..solve.massless import initial_acceleration, massless_dofs
+from ..solve.joint_solver import JointSolver
+from ..solve.stepping import SolverError
 from . import summary as sm
-from .checkpoint import (Checkpointer, interface_state, restore_solver_arrays,
-                         resume_difference, solver_arrays)
+from .checkpoint import (Checkpointer, CheckpointStep, SolverPart, format_error,
+                         resume_difference)
+from .collapse import CollapseRule
 from .damping import damping_matrix, low_rank_damping, modes_to_compute, rayleigh_damping
 from .energy import GUARD_SPLITS, EnergyBudget, EnergyGuard
 from .folder import (FolderError, FolderLock, clean_temporaries, finished_files, probe_writable,
                      reuse_error)
-from .history import HIST_KEYS, History, Snapshots, results_from_history
-from .joints import Joints
+from .history import (HIST_KEYS, HeelOpening, Snapshots, StepHistory,
+                      results_from_history)
+from .joints import Joints, SizeScale
 from .outputs import Outputs
+from .pairing import JointPairing
+from .parts import StepContext, join_checkpoint, split_checkpoint
 from .post_earthquake import PostEarthquakeCheck
-from .safety import FS_DEFINITION, SlidingSafety
-from .statics import solve_pre_earthquake
+from .progress import OutputsStep, Progress
+from .reservoir import ReservoirRun
 from .rotation import FiniteRotation
-from .sliding import JointPairing
-from .stopping import CollapseRule
+from .safety import FS_DEFINITION, SlidingSafety
+from .screening import Screening
+from .statics import solve_pre_earthquake
+from .store import atomic_savez, atomic_write_json, environment_info
 from .uplift import Uplift
 
 __all__ = ["prepare", "Analysis", "seismic_load"]
@@ -74,13 +89,12 @@ def seismic_load(f_static, Mrx, Mry, ax, ay):
     return f
 
 
-def make_solver(scene, model, C, law, C_lowrank=None, coupled=None):
-    """The joint solver of the scene's [time] (integrator) and [solver] keys; C_lowrank:
-    the low-rank part of the damping (``run.damping.low_rank_damping``); coupled: the
-    reservoir's water (solve/coupled.py) or None."""
-    from ..solve.integrator import Integrator
-    from ..solve.joint_solver import JointSolver
-    ts, sv = scene.time, scene.solver
+def make_solver(inputs, model, C, law, C_lowrank=None, coupled=None):
+    """The joint solver of the scene's [time] (integrator) and [solver] keys (``inputs``: the
+    run's ``setup.RunInputs``); C_lowrank: the low-rank part of the damping
+    (``run.damping.low_rank_damping``); coupled: the reservoir's water (solve/coupled.py) or
+    None."""
+    ts, sv = inputs.time, inputs.solver
     integrator = Integrator.make(ts.integrator, rho_inf=ts.rho_inf, beta=ts.newmark_beta,
                                  gamma=ts.newmark_gamma)
     return JointSolver(model.K, model.M, C, model.interface.B, model.interface.w, law,
@@ -89,10 +103,13 @@ def make_solver(scene, model, C, law, C_lowrank=None, coupled=None):
                        stall_iterations=sv.stall_iterations, min_dt=sv.min_dt, coupled=coupled)
 
 
-def _restart(scene, out, ckp, scene_d):
+def _restart(out, ckp, scene_d):
     """(meta, arrays) of the checkpoint in ``out``; ValueError naming the first key whose
     value differs when the checkpoint was written for another scene."""
     meta, arrs = ckp.load()          # FileNotFoundError / CheckpointDamaged, clear messages
+    why = format_error(meta, out)
+    if why is not None:
+        raise ValueError(why)
     diff = resume_difference(meta.get("scene") or {}, scene_d)
     if diff is not None:
         raise ValueError(f"--resume: the checkpoint in {out} was written for a different "
@@ -104,84 +121,95 @@ def _restart(scene, out, ckp, scene_d):
 class Analysis:
     """One dam run: built by ``prepare``, driven by ``static()``, ``step()``, ``finish()``.
 
-    Public attributes: ``scene``, ``out`` (results folder), ``model``, ``joints``,
-    ``solver``, ``modal``, ``damping`` (the Rayleigh dict), ``gm`` (the ground motion),
-    ``times``, ``n_steps``, ``k`` (steps done), ``history``, ``snapshots``, ``energy``,
-    ``uplift``, ``safety``, ``screening``, ``absorbing``, ``reservoir``, ``stopped`` (None
-    or the stop rule's entry), ``static_info``, ``lock`` (the results folder's
-    ``run.folder.FolderLock``, released by ``finish`` or ``release()``), ``previous_files``
-    (the files of the finished run this one replaces, or None)."""
+    Public attributes: ``scene`` (kept for the output stage; the run itself reads
+    ``inputs``, the scene resolved by ``setup.resolve``), ``inputs``, ``out`` (results
+    folder), ``model``, ``joints``, ``solver``, ``modal``, ``damping`` (the Rayleigh dict),
+    ``gm`` (the ground motion), ``times``, ``n_steps``, ``k`` (steps done), ``parts`` (the
+    parts of a step, in their order: ``run.parts``), ``history``, ``snapshots``, ``energy``,
+    ``guard``, ``uplift``, ``safety``, ``screening``, ``absorbing``, ``reservoir``,
+    ``pairing``, ``stop_rule``, ``heel``, ``stopped`` (None or the stop rule's entry),
+    ``static_info``, ``lock`` (the results folder's ``run.folder.FolderLock``, released by
+    ``finish`` or ``release()``), ``previous_files`` (the files of the finished run this one
+    replaces, or None)."""
 
-    def __init__(self, scene, out, gm, model, checkpoints, restart, *, progress, outputs, log,
-                 t0, t_build):
-        from ..fe.modal import k0_from_scene, modal_analysis
+    name = "run"              # its own share of a checkpoint (``checkpoint``)
 
-        self.scene, self.out, self.gm, self.model = scene, out, gm, model
+    def __init__(self, scene, inputs, out, gm, model, checkpoints, restart, *, progress,
+                 outputs, log, t0, t_build):
+        self.scene, self.inputs = scene, inputs
+        self.out, self.gm, self.model = out, gm, model
+        inp = inputs
         self.progress, self.log = progress, log
         self.outputs = outputs if outputs is not None else Outputs()
         self._t0 = t0
-        self.scene_d = scene.to_dict()
+        self.scene_d = inp.scene_dict
         self.checkpoints = checkpoints
         self.lock = None                  # the results folder's lock (``prepare``)
         self.previous_files = None        # the files of a finished run this one replaces
         self._restart = restart
-        resume = restart is not None
         self.timings = {"build": t_build}
 
-        # ---- joints, loads besides gravity and water, safety measures ------------------------
-        iface = model.interface
-        self.joints = joints = Joints(scene, iface)
-        self.uplift = Uplift(scene, iface, joints)
-        self.safety = SlidingSafety(joints)
-        self.absorbing = None                # fe.foundation.AbsorbingRock
-        if scene.geometry.rock_sides == "absorbing":
-            from ..fe.foundation import AbsorbingRock
-            self.absorbing = AbsorbingRock(model, scene.materials.rock, gm,
-                                           scene.ground_motion.start)
-        self.screening = None
-        if scene.screening.enabled:
-            from .screening import Screening
-            self.screening = Screening(scene, model)
-        from ..fe.loads import tailwater_load
-        u = scene.uplift
-        f_tail = tailwater_load(model, u.tailwater, scene.loads.water_density,
-                                scene.loads.gravity)
-        self.post_check = PostEarthquakeCheck(scene, model, joints, self.safety, self.uplift,
-                                              self.absorbing)
-        self.reference = sm.reference_parameters(scene, joints)
-        kn_s, kt_s = k0_from_scene(scene)
-        k0n, k0t = law_stiffness(joints.laws[0])
-        assert abs(kn_s - k0n) <= 1e-9 * k0n and abs(kt_s - k0t) <= 1e-9 * k0t
+        self.collapse = None
+        self.undetermined = None             # the stop entry when the model's range was left
+        self.window_note = inp.window_note
+        self.static_info = None
+        self.stopped = None
+        self.k = 0
+        self.resumed_from = None
+        self._t_loop = None
+        self._wall_before = 0.0
+        f_tail = self._build_joints(inp, model, gm)
+        C = self._build_damping(inp, model)
+        self._build_loads(inp, model, gm, C, f_tail)
+        self._build_parts(inp, model, progress, checkpoints)
+        if progress:
+            c, joints, iface = self.chars, self.joints, model.interface
+            log(f"[{inp.name}] nfree {model.nfree}, joints {', '.join(joints.names)} "
+                f"({iface.npts} interface points), f1 = {self.modal.frequencies_hz[0]:.3f} Hz, "
+                f"a0 = {self.damping['a0']:.4g} 1/s, a1 = {self.damping['a1']:.4g} s; t1 = "
+                f"{c['t1']:.3e} s, t2 = {c['t2']:.3e} s (Eq. 11); record: {gm.label}"
+                f"{' [SYNTHETIC]' if gm.synthetic else ''}")
+            if self.window_note:
+                log(f"[{inp.name}] note: {self.window_note}")
 
-        # ---- modal analysis, damping, solver ---------------------------------------------------
+    def _build_joints(self, inp, model, gm):
+        """The joints with their laws, the uplift, the sliding safety, the absorbing boundary,
+        the screening and the post-earthquake check; returns the tailwater's load (or None)."""
+        self.joints = joints = Joints(inp.joints, model.interface)
+        self.uplift = Uplift(inp, model.interface, joints)
+        self.safety = SlidingSafety(joints, pressure=lambda: self.uplift.p)
+        self.absorbing = None                # fe.foundation.AbsorbingRock
+        if inp.absorbing:
+            self.absorbing = AbsorbingRock(model, inp.rock, gm, inp.record_start)
+        self.screening = None
+        if inp.screening_strength is not None:
+            self.screening = Screening(inp.screening_strength, model)
+        self.post_check = PostEarthquakeCheck(inp.time.max_slip, model, joints, self.safety,
+                                              self.uplift, self.absorbing)
+        self.reference = sm.reference_parameters(inp.g_max, joints)
+        return tailwater_load(model, inp.tailwater, inp.water_density, inp.gravity)
+
+    def _build_damping(self, inp, model):
+        """The modal analysis with the joints bonded and the damping; returns the damping
+        matrix C."""
+        joints, iface = self.joints, model.interface
         t = time.perf_counter()
         k0p = initial_stiffness(joints.solver_law(), iface.npts)    # each joint its own k0
-        self.modal = modal_analysis(self._modal_model(), modes_to_compute(scene), k0p[:, 0],
-                                    k0p[:, 1])
-        self.damping = rayleigh_damping(self.modal, scene,
+        self.modal = modal_analysis(self._modal_model(), modes_to_compute(inp.damping),
+                                    k0p[:, 0], k0p[:, 1])
+        self.damping = rayleigh_damping(self.modal, inp.damping,
                                         None if self._restart is None else self._restart[0])
         self.timings["modal"] = time.perf_counter() - t
         C = damping_matrix(model, self.damping, self.absorbing)
         self.low_damping = low_rank_damping(model, joints, self.damping)
-        # finite sliding: the joints that slide on a deformable face are paired anew
-        self.pairing = JointPairing(model, joints.slices, joints.names, model.interface.B,
-                                    scene.solver.pairing_tolerance)
+        return C
 
-        # ---- the record on the time grid, the loads ---------------------------------------------
-        ts = scene.time
-        self.n_steps = int(round(ts.duration / ts.dt))
-        self.times = ts.dt * np.arange(self.n_steps + 1)
-        self.ax, self.ay = gm.at(scene.ground_motion.start + self.times)
-        Mrx, Mry = model.M @ model.r_x, model.M @ model.r_y
-        self.reservoir = None
-        if getattr(model, "reservoir", None) is not None:   # hydrodynamics (fe/reservoir.py)
-            from .reservoir import ReservoirRun
-            Mrx, Mry = model.reservoir.seismic_vectors(Mrx, Mry)
-            self.reservoir = ReservoirRun.create(model, scene, self.times, self.ax, self.ay,
-                                                 restart, out)
-        # the solver, with the reservoir's water as its coupled field (solve/coupled.py)
+    def _build_solver(self, inp, model, C):
+        """The joint solver, with the reservoir's water as its coupled field (solve/coupled.py;
+        the reservoir is built first), joints that start cracked with no cohesion."""
+        joints = self.joints
         self.solver = solver = make_solver(
-            scene, model, C, joints.solver_law(), self.low_damping,
+            inp, model, C, joints.solver_law(), self.low_damping,
             coupled=None if self.reservoir is None else self.reservoir.field)
         if self.reservoir is not None:
             self.reservoir.solver = solver
@@ -190,69 +218,90 @@ class Analysis:
             st0 = solver.state.copy()
             st0.kappa[cracked] = 1.0
             solver.set_state(st0)
-        self.f_base = model.f_gravity + model.f_water + (np.zeros(model.nfree) if f_tail is None
-                                                         else f_tail)
+
+    def _build_loads(self, inp, model, gm, C, f_tail):
+        """The record on the time grid, the reservoir, the solver, the loads, the energy budget
+        and guard (C: the damping matrix; f_tail: the tailwater's load or None)."""
+        ts, joints = inp.time, self.joints
+        self.n_steps = int(round(ts.duration / ts.dt))
+        self.times = ts.dt * np.arange(self.n_steps + 1)
+        self.ax, self.ay = gm.at(inp.record_start + self.times)
+        Mrx, Mry = model.M @ model.r_x, model.M @ model.r_y
+        self.reservoir = None
+        if getattr(model, "reservoir", None) is not None:   # hydrodynamics (fe/reservoir.py)
+            Mrx, Mry = model.reservoir.seismic_vectors(Mrx, Mry)
+            self.reservoir = ReservoirRun.create(model, self.times, self.ax, self.ay,
+                                                 total=self.absorbing is not None)
+        self._build_solver(inp, model, C)
+        self.f_base = model.f_gravity + model.f_water + (np.zeros(model.nfree)
+                                                         if f_tail is None else f_tail)
         if self.absorbing is not None:       # total displacements: the record enters as
             Mrx, Mry = 0.0 * Mrx, 0.0 * Mry  # free-field forces (``step``)
         self.Mrx, self.Mry = Mrx, Mry
         self.f_reaction = np.zeros(model.nfree)   # support reactions (absorbing rock)
         self.f_static = None
-        self.chars = characteristic_times(scene, joints.reference[0].cohesive.l_Nc)
+        self.u_static = None
+        self.chars = inp.characteristic_times
         # C = a0 M + a1 K (+ dashpots): the budget's damping work needs no product with C
         self.energy = EnergyBudget(
-            model.K, model.M, C, iface.w, joints,
+            model.K, model.M, C, model.interface.w, joints,
             rayleigh=(self.damping["a0"], self.damping["a1"]),
             C_extra=None if self.absorbing is None else self.absorbing.C,
             fluid=None if self.reservoir is None else self.reservoir.stepper,
             added_mass=getattr(getattr(model, "reservoir", None), "added_mass", None),
             C_lowrank=self.low_damping)
+        self.guard = EnergyGuard(fraction=inp.solver.energy_guard)
         # the wall time stays the last column (everything before it is deterministic)
         self.history_keys = (list(HIST_KEYS[:-1]) + joints.history_keys()
                              + self.safety.history_keys() + self.energy.keys() + ["wall"])
+
+    def _build_parts(self, inp, model, progress, checkpoints):
+        """The parts of a step, in their order (``run.parts``): after each step each does its
+        job; a checkpoint is each part's ``checkpoint()``, a resume each part's ``restore()``."""
+        solver, joints, ts = self.solver, self.joints, inp.time
+        self.solver_part = SolverPart(solver)
+        # finite sliding: the joints that slide on a deformable face are paired anew
+        self.pairing = JointPairing(model, joints.slices, joints.names, model.interface.B,
+                                    inp.solver.pairing_tolerance, solver=solver)
+        self.pairing.on_repair += [
+            lambda s: self._operator_changed(),
+            # an opened point's gap jumps by OPEN_GAP with no motion: no work is booked
+            lambda s: self.energy.rebase_gap(s.operator_gap())]
+        self.size_scale = SizeScale(joints, solver, self.energy)
+        self.snapshots = Snapshots(self.n_steps, inp.output.snapshots)
+        self._history = StepHistory(self.history_keys, model.crest_dofs)
+        self.heel_opening = HeelOpening(joints.slices[0])
+        # finite rotations of the blocks (run/rotation.py; None: the small-rotation kinematics)
+        self.rotation = (FiniteRotation(model, joints, solver, self.Mrx, self.Mry, self.energy)
+                         if inp.solver.kinematics == "finite_rotation" else None)
         self.stop_rule = CollapseRule(model, joints, ts.max_slip, ts.max_rotation,
-                                      scene.solver.kinematics)
-        # finite rotations of the blocks (run/rotation.py; off: the small-rotation kinematics)
-        self.rotation = (FiniteRotation(model, joints, solver, self.Mrx, self.Mry)
-                         if scene.solver.kinematics == "finite_rotation" else None)
-        self.collapse = None
-        self.undetermined = None             # the stop entry when the model's range was left
-        self.window_note = window_note(scene, gm)
-        self.snapshots = Snapshots(self.n_steps, scene.output.snapshots)
-        self.history = None
-        self.static_info = None
-        self.stopped = None
-        self.k = 0
-        self.resumed_from = None
-        self._bar = None
-        self._t_loop = None
-        self._wall_before = 0.0
-        self._n_cuts, self._n_cuts_at = 0, 0
-        if progress:
-            c = self.chars
-            log(f"[{scene.name}] nfree {model.nfree}, joints {', '.join(joints.names)} "
-                f"({iface.npts} interface points), f1 = {self.modal.frequencies_hz[0]:.3f} Hz, "
-                f"a0 = {self.damping['a0']:.4g} 1/s, a1 = {self.damping['a1']:.4g} s; t1 = "
-                f"{c['t1']:.3e} s, t2 = {c['t2']:.3e} s (Eq. 11); record: {gm.label}"
-                f"{' [SYNTHETIC]' if gm.synthetic else ''}")
-            if self.window_note:
-                log(f"[{scene.name}] note: {self.window_note}")
+                                      inp.solver.kinematics)
+        self.progress_bar = Progress(progress, self.n_steps, inp.label, self._history)
+        self.parts = [p for p in (
+            self.solver_part, self.uplift, self.screening, self.reservoir, joints, self.safety,
+            self.energy, self._history, self.guard, self.size_scale, self.pairing,
+            self.snapshots, OutputsStep(self), self.progress_bar, self.heel_opening,
+            self.rotation, self.stop_rule, CheckpointStep(checkpoints, self._checkpoint, solver))
+            if p is not None]
+
+    @property
+    def history(self):
+        """The per-step ``History`` (None before ``static()``)."""
+        return self._history.history
+
+    @property
+    def heel(self) -> dict:
+        """The state of the largest heel opening while the base holds: {u, t, open}."""
+        h = self.heel_opening
+        return {"u": h.u, "t": h.t, "open": h.open}
 
     def _modal_model(self):
         """The model the modal analysis sees: with absorbing (unsupported) rock boundaries,
         the static support springs (the dashpots have no stiffness)."""
         if self.absorbing is None:
             return self.model
-        import dataclasses
         return dataclasses.replace(self.model,
                                    K=(self.model.K + self.absorbing.K_support).tocsr())
-
-    def _update_laws(self, state, book_energy=True, scan=None):
-        """Size-scale update of every joint's law from its failed length (paper §2)."""
-        old = list(self.joints.laws)
-        if self.joints.update(state, scan):
-            self.solver.set_law(self.joints.solver_law())
-            if book_energy:
-                self.energy.law_update(old, self.solver.g, state)
 
     # ------------------------------------------------------------------ static state
     def static(self) -> dict:
@@ -260,7 +309,7 @@ class Analysis:
         returns ``static_info`` (summary.json ``static``)."""
         if self._restart is not None:
             return self._resume()
-        solver, scene = self.solver, self.scene
+        solver = self.solver
         t = time.perf_counter()
         rep, self.f_static, self.f_reaction = solve_pre_earthquake(solver, self.f_base,
                                                                    self.uplift, self.absorbing)
@@ -268,8 +317,7 @@ class Analysis:
             self.screening.static(solver.u)
         t_static = time.perf_counter() - t
         ax0, ay0 = self.ax[0], self.ay[0]
-        if scene.geometry.foundation == "massless":      # M singular on the rock
-            from ..solve.massless import initial_acceleration, massless_dofs
+        if self.inputs.massless:                          # M singular on the rock
             initial_acceleration(solver, self.f_static - self.Mrx * ax0 - self.Mry * ay0,
                                  massless_dofs(self.model.M), self.damping["a1"])
         else:
@@ -294,59 +342,37 @@ class Analysis:
             "joints": self.safety.static_measures(solver, self.uplift.p),
         }
         self.timings["static"] = t_static
-        self.history = History(self.history_keys)
+        self._history.start()
         self.snapshots.take(0, 0.0, solver)
-        # Fig. 12 shows the state of the largest heel opening while the base still holds
-        self.heel = {"u": self.u_static.copy(), "t": 0.0, "open": float(solver.g[0, 0])}
+        self.heel_opening.start(self.u_static, solver.g[0, 0])
         self.energy.start(solver.u, solver.v, solver.f, solver.t, solver.g, solver.state)
-        self.guard = EnergyGuard(0.5 * float(solver.u @ self.f_static),
-                                 fraction=scene.solver.energy_guard)
+        self.guard.e_static = abs(0.5 * float(solver.u @ self.f_static))
         self.guard.start()
         self.joints.set_reference(solver.g)       # slip and rotation from the static state
-        self._update_laws(solver.state)            # the sizes for step 1
+        self.size_scale.update(solver.state)       # the sizes for step 1
         self._prepare_loop()
         return self.static_info
 
     def _resume(self) -> dict:
-        meta, arrs = self._restart
-        solver = self.solver
-        solver.state = interface_state(arrs)
-        self._update_laws(solver.state, book_energy=False)
-        restore_solver_arrays(solver, arrs, meta["time"])
-        self.static_info = meta["static"]
-        self.uplift.restore(arrs)
-        self.f_reaction = np.array(arrs["f_reaction"])
-        if self.screening is not None:
-            self.screening.restore(arrs)
-        self.safety.static = (self.static_info or {}).get("joints")
+        meta, arrays = self._restart
+        own = join_checkpoint("run", arrays, meta["parts"])
+        self.static_info = own["static"]
+        self.f_reaction = np.array(own["f_reaction"])
+        self.u_static = np.array(own["u_static"])
+        self._wall_before = float(own["dynamic_wall"])
+        for p in self.parts:                      # in the parts' order (run.parts)
+            p.restore(join_checkpoint(p.name, arrays, meta["parts"]))
         extra = self.f_reaction.copy()
         if self.uplift.active:
             extra += self.uplift.load(self.uplift.p_static)
         self.f_static = self.f_base + extra
-        self.timings["static"] = self.static_info["wall"]
-        self.u_static = arrs["u_static"]
-        self.history = History.from_arrays(arrs, self.history_keys)
-        self.snapshots.restore(arrs)
-        self.heel = {"u": arrs["heel_u"], "t": float(meta["heel_t"]),
-                     "open": float(meta["heel_open"])}
-        self.energy.restore(arrs)
-        self.guard = EnergyGuard(fraction=self.scene.solver.energy_guard)
-        self.guard.restore(meta.get("guard") or {},
-                           {kk: c[-1] for kk, c in self.history.cols.items()}
-                           if len(self.history) else None)
-        self.joints.static_motion = arrs["joints_static_motion"]
-        self.stop_rule.restore(arrs)
-        self.pairing.restore(arrs, solver, arrs.get("solver_g_offset") if hasattr(arrs, "get")
-                             else None)
         if self.pairing.repairs and self.uplift.active:
             self._operator_changed()
-        if self.rotation is not None:
-            self.rotation.restore(arrs, solver)
+        self.timings["static"] = self.static_info["wall"]
         self.k = self.resumed_from = int(meta["step"])
-        self._wall_before = float(meta["dynamic_wall"])
         if self.progress:
-            self.log(f"[{self.scene.name}] resuming from step {self.k} "
-                     f"(t = {self.k * self.scene.time.dt:.4g} s)")
+            self.log(f"[{self.inputs.name}] resuming from step {self.k} "
+                     f"(t = {self.k * self.inputs.time.dt:.4g} s)")
         self._prepare_loop()
         return self.static_info
 
@@ -379,34 +405,63 @@ class Analysis:
         """One step of the record: solve, measure, record, checkpoint when due. Returns False
         when the run is over (this was the last step, or the stop rule fired at it; also when
         called with no step left), True when ``step()`` may be called again."""
-        from ..solve.stepping import SolverError
-
         if self.history is None:
             raise RuntimeError("Analysis.step: call static() first")
         if self.done:
             return False
-        if self._bar is None:
-            self._start_loop()
-        solver, joints, scene = self.solver, self.joints, self.scene
+        if self.progress_bar.bar is None:
+            self.progress_bar.open(self.k)
+            self._t_loop = time.perf_counter()
+        solver, name = self.solver, self.inputs.name
         k = self.k + 1
         tk = self.times[k]
         f_k = seismic_load(self.f_static, self.Mrx, self.Mry, self.ax[k], self.ay[k])
         if self.absorbing is not None:
             f_k = f_k + self.absorbing.force(solver.time + solver.dt)
-        if self.rotation is not None:        # the step's gap offset and P-Delta load
-            f_k = f_k + self.rotation.before_step(solver, scene.time.dt, self.ax[k],
-                                                  self.ay[k])
-            self.energy.rebase_gap(solver.operator_gap())   # the offset books no work
-        snap = self._snapshot()
+        ctx = StepContext(k=k, t=tk, dt=self.inputs.time.dt, solver=solver, load=f_k,
+                          static_loads=self._static_loads, ground=(self.ax[k], self.ay[k]))
+        for part in self.parts:                   # in their order (run.parts)
+            part.before_step(ctx)
+        ctx.report, ctx.load, ctx.energy, ctx.scan = self._solve(k, tk, ctx.load)
+        self.k = k
+        for part in self.parts:
+            part.after_step(ctx)
+        if ctx.stop is not None:
+            coll = dict(ctx.stop)
+            verdict = coll.pop("verdict")
+            if verdict == "collapse":
+                self.collapse = coll
+            else:                          # the model's range left (run.collapse)
+                self.undetermined = coll
+            self.stopped = {"reason": f"{verdict}: {coll['reason']}", "t": coll["time"],
+                            "step": k, "verdict": verdict}
+            if self.progress:
+                self.progress_bar.write(f"[{name}] stopped at t = {tk:.3f} s: "
+                                        + self.stopped["reason"])
+            return False
+        return k < self.n_steps
+
+    def _solve(self, k, tk, f_k):
+        """The step's solve: the uplift's fixed point (``run.uplift``) and the energy guard
+        (``run.energy.EnergyGuard``: a step that breaks the energy balance is repeated from
+        the committed state in 2, 4, ... uniform sub-steps). Returns (the solver's report,
+        the load used, the energy row, the joints' scan)."""
+        solver, name = self.solver, self.inputs.name
+        # what a step changes, to repeat it: the solver's committed state with its coupled
+        # water's and the energy budget's accumulators (their checkpoints), and the uplift
+        # pressure in force (its fixed-point counts keep the rejected attempts' solves)
+        repeat = (self.solver_part, self.energy)
+        saved = [p.checkpoint() for p in repeat]
+        p_uplift = self.uplift.p
         split, cuts, failed = 0, 0, 0
         while True:
             try:
                 rep, f_used = self.uplift.step(solver, f_k, split)  # f_used: with the uplift
             except SolverError as e:
-                raise SolverError(f"{scene.name}: step {k} (t = {tk:.4f} s): {e}") from None
+                raise SolverError(f"{name}: step {k} (t = {tk:.4f} s): {e}") from None
             st = solver.state
             # the per-point work of the joints', energy's and safety's measures, once
-            scan = joints.scan(st, solver.g, solver.t)
+            scan = self.joints.scan(st, solver.g, solver.t)
             # K u, M v from the solver's pass that also forms the next step's right-hand side
             # (the budget and the solver are built on the same model.K, model.M)
             en = self.energy.step(solver.u, solver.v, f_used, solver.t, solver.g, st, scan,
@@ -414,140 +469,45 @@ class Analysis:
             ok, why = self.guard.check(en, tk)       # (fraction 0: the guard is off)
             if ok:
                 break
-            # the step broke the energy balance: never accepted; repeated from the committed
-            # state in 2, 4, ... uniform sub-steps (run.energy.EnergyGuard)
             cuts += rep.cuts + 1
             failed += rep.iterations + rep.iterations_failed
             split += 1
             if split > GUARD_SPLITS:
-                raise SolverError(f"{scene.name}: step {k} (t = {tk:.4f} s): {why}, even in "
+                raise SolverError(f"{name}: step {k} (t = {tk:.4f} s): {why}, even in "
                                   f"{2 ** GUARD_SPLITS} sub-steps; committed state is at "
                                   f"t = {self.times[k - 1]:.6g} s")
-            self._restore(snap)
+            for p, d in zip(repeat, saved):
+                p.restore(d)
+            self.uplift.p = p_uplift
         rep.cuts += cuts
         rep.iterations_failed += failed
-        f_k = f_used
-        if self.screening is not None:
-            self.screening.update(solver.u, solver.time, solver.dt)
-        self.k = k
-        if self.reservoir is not None:
-            self.reservoir.sample(k, tk)
-        jm = joints.measures(st, solver.g, scan)
-        cx, cy = self.model.crest_dofs
-        self.history.append(
-            step=k, t=tk, crest_ux=solver.u[cx], crest_uy=solver.u[cy],
-            iterations=rep.iterations, iterations_failed=rep.iterations_failed, cuts=rep.cuts,
-            substeps=len(rep.dts), n_active=rep.n_active, n_debonded=jm["base_n_debonded"],
-            crack_length=jm["base_crack_length"],
-            crack_length_heel=jm["base_crack_length_upstream"], max_D=jm["base_max_D"],
-            D_heel=float(st.damage[0]), kappa_heel=float(st.kappa[0]),
-            size_b=jm["base_size_b"], sigma_max=jm["base_sigma_max"], wall=rep.wall, **jm,
-            **en, **self.safety.step_measures(solver.t, st, self.uplift.p, scan))
-        self._update_laws(st, scan=scan)       # size-scale update for the next step
-        if self.pairing.active and self.pairing.update(solver):   # finite sliding
-            self._operator_changed()
-            # an opened point's gap jumps by OPEN_GAP with no motion: no work is booked
-            self.energy.rebase_gap(solver.operator_gap())
-        if self.snapshots.due(k):
-            self.snapshots.take(k, tk, solver)
-        self.outputs.step(self, k, tk)
-        self._show(k, rep, jm)
-        base = joints.slices[0]
-        if jm["base_n_debonded"] < base.stop - base.start and solver.g[0, 0] > self.heel["open"]:
-            self.heel = {"u": solver.u.copy(), "t": float(tk), "open": float(solver.g[0, 0])}
-        coll = None if self.rotation is None else self.rotation.after_step(
-            solver, k, tk, self._static_loads)
-        if coll is None:
-            coll = self.stop_rule.check(k, tk, scene.time.dt, jm, self._static_loads, joints,
-                                        scan)
-        if coll is not None:
-            verdict = coll.pop("verdict")
-            if verdict == "collapse":
-                self.collapse = coll
-            else:                          # the model's range left (run.stopping)
-                self.undetermined = coll
-            self.stopped = {"reason": f"{verdict}: {coll['reason']}", "t": coll["time"],
-                            "step": k, "verdict": verdict}
-        if self.stopped is not None:
-            if self.progress:
-                self._bar.write(f"[{scene.name}] stopped at t = {tk:.3f} s: "
-                                + self.stopped["reason"])
-            return False
-        if self.checkpoints.due(k):
-            self._checkpoint(k)
-            # a run resumed here starts with a fresh solver: the uninterrupted run drops
-            # what the solver carries besides the committed state (a reused Jacobian)
-            solver.forget_jacobian()
-        return k < self.n_steps
-
-    def _snapshot(self):
-        """What a step changes, to repeat it (the energy guard): the solver's committed state
-        with its coupled water's (``JointSolver.checkpoint``), the uplift in force and the
-        energy budget's accumulators."""
-        return (self.solver.checkpoint(), self.uplift.field.p, self.energy.state())
-
-    def _restore(self, snap):
-        sv, p, budget = snap
-        self.solver.restore(sv)
-        self.uplift.field.p = p
-        self.energy.restore(budget)
+        return rep, f_used, en, scan
 
     def _static_loads(self):
         """Gravity, water and tailwater with the uplift now (the collapse rule's FS_static)."""
         return self.f_base + (self.uplift.load(self.uplift.p) if self.uplift.active else 0.0)
 
-    def _start_loop(self):
-        from tqdm import tqdm
-        sc = self.scene
-        # disable=None: tqdm turns itself off when stderr is not a terminal (logs stay readable)
-        self._bar = tqdm(total=self.n_steps, initial=self.k,
-                         disable=None if self.progress else True, unit="step",
-                         desc=f"{sc.name} a={sc.interface.alpha:g}", dynamic_ncols=True)
-        self._t_loop = time.perf_counter()
-
-    def _show(self, k, rep, jm):
-        self._bar.update(1)
-        if self.progress and (k % 10 == 0 or k == self.n_steps):
-            # the cuts so far: a running sum (summing the whole column is O(k) per call)
-            self._n_cuts += int(np.sum(self.history.cols["cuts"][self._n_cuts_at:]))
-            self._n_cuts_at = len(self.history)
-            self._bar.set_postfix_str(f"t={self.times[k]:.3f}s it={rep.iterations} "
-                                      f"cuts={self._n_cuts} "
-                                      f"crack={jm['base_crack_length_upstream']:.3f}m "
-                                      f"Dheel={self.solver.state.damage[0]:.3f}",
-                                      refresh=False)
-
     def _dynamic_wall(self) -> float:
         return self._wall_before + (0.0 if self._t_loop is None
                                     else time.perf_counter() - self._t_loop)
 
+    def checkpoint(self) -> dict:
+        """The run's own share of a checkpoint (the parts' follow it, ``run.parts``): the
+        static state and the wall time so far."""
+        return {"static": self.static_info, "u_static": self.u_static,
+                "f_reaction": self.f_reaction, "dynamic_wall": self._dynamic_wall()}
+
     def _checkpoint(self, k):
-        solver = self.solver
-        arrays = {**solver_arrays(solver), "u_static": self.u_static, "heel_u": self.heel["u"],
-                  "f_reaction": self.f_reaction, **self.energy.state(),
-                  **self.uplift.checkpoint_arrays(), **self.stop_rule.state(),
-                  **self.pairing.state(), "joints_static_motion": self.joints.static_motion,
-                  **({} if self.rotation is None else self.rotation.checkpoint())}
-        if self.screening is not None:
-            arrays.update(self.screening.checkpoint_arrays())
-        if self.reservoir is not None:             # the water state, in the same set
-            arrays.update(self.reservoir.checkpoint_arrays())
-        arrays.update({f"hist_{kk}": vv for kk, vv in self.history.arrays().items()})
-        arrays.update(self.snapshots.arrays())
-        self.checkpoints.save(k, {"scene": self.scene_d, "time": solver.time,
-                                  "static": self.static_info, "heel_t": self.heel["t"],
-                                  "heel_open": self.heel["open"],
+        arrays, parts = split_checkpoint([self] + self.parts)
+        self.checkpoints.save(k, {"scene": self.scene_d, "parts": parts,
                                   "rayleigh": {"a0": self.damping["a0"],
                                                "a1": self.damping["a1"]},
-                                  "dynamic_wall": self._dynamic_wall(),
-                                  "guard": self.guard.state(),
                                   "laws": self.joints.params()}, **arrays)
 
     def close(self):
         """End the time loop: the progress bar closed, the last checkpoint on disk (written in
         the background). ``finish`` calls it; a caller that stops early calls it itself."""
-        if self._bar is not None:
-            self._bar.close()
+        self.progress_bar.close()
         self.checkpoints.wait()
 
     # ------------------------------------------------------------------ the end
@@ -556,7 +516,7 @@ class Analysis:
         complete); the checkpoints are removed. Returns the summary dict."""
         self.close()
         self.solver.release_steps()        # memory for the outputs (the loop is over)
-        scene, solver, joints, out = self.scene, self.solver, self.joints, self.out
+        solver, out = self.solver, self.out
         self.timings["dynamic"] = self._dynamic_wall()
         snaps = self.snapshots
         if self.stopped is not None and snaps.last_step != self.stopped["step"]:
@@ -571,7 +531,7 @@ class Analysis:
         post = (self.post_check.collapsed(ended) if ended is not None
                 else self.post_check.run(solver, self.f_base))
         post["wall"] = time.perf_counter() - t_pe
-        safety_sum = self.safety.summary(H, scene.time.dt)
+        safety_sum = self.safety.summary(H, self.inputs.time.dt)
         files.extend(self.outputs.safety(self, H, post, safety_sum))
         summary = self._summary(H, post, safety_sum, files)
         atomic_write_json(out / "summary.json", summary)     # LAST: the run is complete
@@ -602,17 +562,15 @@ class Analysis:
                      x=iface.x, y=iface.y, w=iface.w,
                      **{f"state_{kk}": vv for kk, vv in solver.state.as_dict().items()})
         files.append("final_state.npz")
-        if self.reservoir is not None:
-            self.reservoir.clear_checkpoints()                # the run is complete
         return files
 
     def _summary(self, H, post, safety_sum, files) -> dict:
-        scene, model, gm, iface = self.scene, self.model, self.gm, self.model.interface
+        inp, model, gm, iface = self.inputs, self.model, self.gm, self.model.interface
         snaps = self.snapshots.data
         summary = {
             "scene": self.scene_d,
             "label": gm.label + (" [SYNTHETIC]" if gm.synthetic else ""),
-            "ground_motion": sm.ground_motion_summary(scene, gm, self.window_note),
+            "ground_motion": sm.ground_motion_summary(inp.record_start, gm, self.window_note),
             "formulation": FORMULATION,
             "stopped": self.stopped,
             "verdict": ("collapse" if self.collapse is not None else "undetermined"
@@ -621,7 +579,7 @@ class Analysis:
             "undetermined": self.undetermined,
             "finite_sliding": {"joints_paired": [j[0] for j in self.pairing.joints],
                                "repairings": int(self.pairing.repairs),
-                               "tolerance": scene.solver.pairing_tolerance},
+                               "tolerance": inp.solver.pairing_tolerance},
             "crest_point": list(model.crest_point),
             "crest_displacement_note": "upstream crest corner, relative to the rigid ground "
                                        "(rock bottom); includes the static displacement",
@@ -630,7 +588,7 @@ class Analysis:
                      "interface_points": int(iface.npts)},
             "frequencies_hz": [float(f) for f in self.modal.frequencies_hz],
             "rayleigh": self.damping,
-            "law": law_parts(scene),
+            "law": inp.law,
             "reference_parameters": self.reference,
             "final_parameters": self.joints.params()[0],
             "joints": sm.joint_results(self.joints, H, snaps),
@@ -680,28 +638,28 @@ def prepare(scene, outdir=None, *, resume: bool = False, progress: bool = True,
                         f"outputs=ngs_driver.post.outputs.RunOutputs(plots={plots!r})")
     t0 = time.perf_counter()
     gm = validate(scene)                      # nothing is written for a bad scene
+    inputs = resolve(scene, gm)               # the scene resolved once (setup.inputs)
     key = out_key or ("outdir" if outdir is not None else "output.dir")
-    out = pathlib.Path(outdir if outdir is not None else scene.output.dir)
+    out = pathlib.Path(outdir if outdir is not None else inputs.output.dir)
     probe_writable(out, key)                  # created and writable before any work
-    lock = FolderLock(out, key).acquire()     # one run per folder (docs/solver.md §8.5)
+    lock = FolderLock(out, key).acquire()     # one run per folder (docs/run.md §6)
     try:
         why = reuse_error(out, resume=resume, overwrite=overwrite, key=key)
         if why is not None:
             raise FolderError(why)
-        checkpoints = Checkpointer(out, scene.output.checkpoint_every)
-        restart = _restart(scene, out, checkpoints, scene.to_dict()) if resume else None
+        checkpoints = Checkpointer(out, inputs.output.checkpoint_every)
+        restart = _restart(out, checkpoints, inputs.scene_dict) if resume else None
         for note in checkpoints.notes:        # a damaged newest checkpoint passed over
-            log(f"[{scene.name}] warning: {note}")
+            log(f"[{inputs.name}] warning: {note}")
         clean_temporaries(out)                # a killed run's half-written files
         previous = finished_files(out)
         if overwrite and not resume:          # asked for: the old checkpoints go now, the
             checkpoints.remove_all()          # finished run's files at the end (finish)
         t = time.perf_counter()
         if model is None:
-            from ..fe.model import build_from_scene
-            model = build_from_scene(scene)
+            model = build_from_inputs(model_inputs(scene))
         t_build = time.perf_counter() - t
-        a = Analysis(scene, out, gm, model, checkpoints, restart, progress=progress,
+        a = Analysis(scene, inputs, out, gm, model, checkpoints, restart, progress=progress,
                      outputs=outputs, log=log, t0=t0, t_build=t_build)
         a.lock, a.previous_files = lock, previous
         a.outputs.start(a)

@@ -1,6 +1,7 @@
 """Checkpoints of a run: arrays + manifest written atomically, the manifest last (the commit
-point), the previous checkpoint kept until the next one is committed;
-and the layout of the solver's committed state in the checkpoint file."""
+point), the previous checkpoint kept until the next one is committed; the solver's
+committed state as a run part (``SolverPart``: the copy a checkpoint or a repeated solve
+needs)."""
 from __future__ import annotations
 
 import hashlib
@@ -13,20 +14,70 @@ import zlib
 
 import numpy as np
 
+from .parts import Part
 from .store import atomic_write_bytes, atomic_write_text, json_text, npz_bytes
 
+# the layout of a checkpoint: 2 = one namespace per run part (``run.parts``); a checkpoint of
+# another format is refused on --resume with a message saying so
+CHECKPOINT_FORMAT = 2
 
-def solver_arrays(solver) -> dict:
-    """The solver's committed state (``JointSolver.checkpoint``, without its coupled water:
-    the reservoir part saves that) in the checkpoint file's layout: u, v, a, f, the interface
-    state ``state_*`` and the other internals as ``solver_*`` (``restore_solver_arrays``)."""
-    d = solver.checkpoint(coupled=False)
-    d.pop("time")
-    out = {k: d.pop(k) for k in ("u", "v", "a")}
-    out["f"] = d.pop("f", None)
-    out.update({k: d.pop(k) for k in [k for k in d if k.startswith("state_")]})
-    out.update({f"solver_{k}": v for k, v in d.items()})
-    return out
+
+# The calls into the solver's own save and restore (and its coupled water's) are here and
+# nowhere else in run/: the solve stage's names for them may change in one place.
+def _solver_checkpoint(solver) -> dict:
+    return solver.checkpoint(coupled=False)
+
+
+def _restore_solver(solver, d) -> None:
+    solver.restore(d)
+
+
+def _water(solver):
+    """The solver's coupled water (``solve.coupled.CoupledField``), or None; only the
+    compressible acoustic water has a state of its own (the others' checkpoint is empty)."""
+    return getattr(solver, "coupled", None)
+
+
+def _water_state(water) -> dict:
+    return water.checkpoint()
+
+
+def _restore_water(water, d) -> None:
+    water.restore(d)
+
+
+class SolverPart(Part):
+    """The solver's committed state as a run part: u, v, a, f, time, the interface state, the
+    internals a bitwise continuation needs (traction, gap, phi, the active set, the gap
+    offset of a re-paired joint) and the state of its coupled water (compressible acoustic
+    water: p, p', p'' and its energy accumulators). ``checkpoint()`` copies it all: the same
+    dict repeats a solve bit for bit (the energy guard, the uplift's fixed point, the
+    post-earthquake check) and is the solver's share of a checkpoint. Without the water's, a
+    repeated step (the uplift's fixed point) stepped the water twice: pine_flat's energy
+    guard stopped the run at 2.97 s."""
+
+    name = "solver"
+
+    def __init__(self, solver):
+        self.solver = solver
+
+    def checkpoint(self) -> dict:
+        s = self.solver
+        d = _solver_checkpoint(s)       # copies: u, v, a, f, time, the internals, state_*
+        water = _water(s)
+        if water is not None:
+            d.update({f"water.{k}": None if v is None else np.array(v, copy=True)
+                      for k, v in _water_state(water).items()})
+        return d
+
+    def restore(self, d: dict) -> None:
+        """The solver as ``checkpoint()`` found it (copies: ``d`` stays valid). The gap
+        offset is not set here: the pairing's and the rotation's parts restore it."""
+        s = self.solver
+        _restore_solver(s, {k: v for k, v in d.items() if not k.startswith("water.")})
+        water = {k[6:]: v for k, v in d.items() if k.startswith("water.")}
+        if water:
+            _restore_water(_water(s), water)
 
 
 def scene_difference(have, want, path="") -> str | None:
@@ -67,28 +118,26 @@ def resume_difference(have: dict, want: dict) -> str | None:
     return scene_difference(_resumable(have), _resumable(json.loads(json.dumps(want))))
 
 
-def checkpoint_scene_difference(scene, directory) -> str | None:
-    """The first key in which ``scene`` differs from the scene of the checkpoint in
-    ``directory`` that a resume would use (``resume_difference``), or None. CheckpointDamaged
-    when no checkpoint there can be read."""
+def checkpoint_scene_difference(scene_dict: dict, directory) -> str | None:
+    """The first key in which ``scene_dict`` (a scene's ``to_dict()``) differs from the scene
+    of the checkpoint in ``directory`` that a resume would use (``resume_difference``), or
+    None. CheckpointDamaged when no checkpoint there can be read, ValueError when it has
+    another format."""
     meta, _ = Checkpointer(directory, 0).load()
-    return resume_difference(meta.get("scene") or {}, scene.to_dict())
+    why = format_error(meta, directory)
+    if why is not None:
+        raise ValueError(why)
+    return resume_difference(meta.get("scene") or {}, scene_dict)
 
 
-def interface_state(arrs):
-    """The interface state saved by ``solver_arrays``."""
-    from interfacelaw import InterfaceState
-    return InterfaceState.from_dict({k[6:]: v for k, v in arrs.items()
-                                     if k.startswith("state_")})
-
-
-def restore_solver_arrays(solver, arrs, time: float) -> None:
-    """The rest of ``solver_arrays`` once ``solver.state`` (``interface_state``) and the law
-    are set: u, v, a, f and the committed internals exactly as they were, and the time
-    (``JointSolver.restore``; the interface state is left as set)."""
-    d = {k[7:]: v for k, v in arrs.items() if k.startswith("solver_")}
-    d.update({k: arrs[k] for k in ("u", "v", "a", "f")}, time=float(time))
-    solver.restore(d)
+def format_error(meta: dict, directory) -> str | None:
+    """Why a checkpoint's manifest cannot be resumed by this version (its format), or None."""
+    have = meta.get("format", 1)
+    if have == CHECKPOINT_FORMAT:
+        return None
+    return (f"--resume: the checkpoint (step {meta.get('step')}) in {directory} has checkpoint "
+            f"format {have!r}, written by another version; this version reads format "
+            f"{CHECKPOINT_FORMAT}; allowed: rerun without --resume (--overwrite replaces it)")
 
 
 class CheckpointDamaged(ValueError):
@@ -100,7 +149,7 @@ def _sha256(data: bytes) -> str:
 
 
 class Checkpointer:
-    """Checkpoints of a run, each a set committed at once (docs/solver.md §8.5):
+    """Checkpoints of a run, each a set committed at once (docs/run.md §6):
 
     * ``checkpoint_<step>.npz``: every array of the run's state at the step (solver, uplift,
       water, history), written first;
@@ -155,7 +204,8 @@ class Checkpointer:
         previous one; ``wait()`` before anything reads the directory or the run ends."""
         name = f"checkpoint_{step:07d}.npz"
         data = npz_bytes(**arrays)
-        text = json_text(dict(meta, step=step, arrays=name, arrays_bytes=len(data),
+        text = json_text(dict(meta, step=step, format=CHECKPOINT_FORMAT, arrays=name,
+                              arrays_bytes=len(data),
                               arrays_sha256=_sha256(data)))
         self.wait()
         self._writer = threading.Thread(target=self._write, args=(name, data, text),
@@ -252,3 +302,20 @@ class Checkpointer:
                 if len(errors) > 1 else "no previous one is left; ")
         raise CheckpointDamaged(f"{errors[0]}; resume from the previous one or rerun without "
                                 f"--resume ({prev}a rerun needs --overwrite to replace it)")
+
+
+class CheckpointStep(Part):
+    """Writing the checkpoint when due (``output.checkpoint_every``), a run part
+    (``run.parts``), listed last: ``save(k)`` writes every part's checkpoint. A run resumed
+    there starts with a fresh solver, so the uninterrupted run drops what the solver carries
+    besides its committed state (a reused Jacobian) at the same step."""
+
+    name = "checkpoints"
+
+    def __init__(self, checkpointer, save, solver):
+        self.checkpointer, self.save, self.solver = checkpointer, save, solver
+
+    def after_step(self, ctx):
+        if ctx.stop is None and self.checkpointer.due(ctx.k):
+            self.save(ctx.k)
+            self.solver.forget_jacobian()

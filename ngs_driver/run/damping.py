@@ -5,27 +5,28 @@ joints bonded at two modes or frequencies (Chopra, Dynamics of Structures, §11.
 Lysmer-Kuhlemeyer dashpots of absorbing rock boundaries."""
 from __future__ import annotations
 
+from ..fe.blocks import block_rigid_modes
 from ..fe.modal import damping_from_modes
+from ..solve.damping import DeformationDamping
 
 __all__ = ["rayleigh_damping", "damping_matrix", "low_rank_damping", "modes_to_compute"]
 
 N_MODES = 6        # the modes a run computes (summary.json frequencies_hz) ...
 
 
-def modes_to_compute(scene, n: int = N_MODES) -> int:
-    """... or more, when the damping is set at a higher mode (``damping.modes`` up to 50)."""
-    d = scene.damping
+def modes_to_compute(d, n: int = N_MODES) -> int:
+    """... or more, when the damping is set at a higher mode (``damping.modes`` up to 50).
+    d: the scene's [damping] table."""
     if d.frequencies or not d.modes:
         return n
     return max(n, max(int(m) for m in d.modes))
 
 
-def rayleigh_damping(modal, scene, restart: dict | None = None) -> dict:
+def rayleigh_damping(modal, d, restart: dict | None = None) -> dict:
     """The Rayleigh coefficients (dict of ``fe.modal.damping_from_modes``). ARPACK's random
     start vector changes the last bits of the eigenvalues from call to call: a0, a1 are rounded
     to 10 significant digits so that runs (and restarts) are bitwise repeatable; a restart
-    takes the checkpoint's values (``restart``: its meta)."""
-    d = scene.damping
+    takes the checkpoint's values (``restart``: its meta). d: the scene's [damping] table."""
     damp = damping_from_modes(modal, d.ratio, d.modes, d.frequencies or None, d.model)
     damp["a0_unrounded"], damp["a1_unrounded"] = damp["a0"], damp["a1"]
     damp["a0"], damp["a1"] = float(f"{damp['a0']:.10g}"), float(f"{damp['a1']:.10g}")
@@ -47,8 +48,6 @@ def low_rank_damping(model, joints, damp):
     mass term off each dam block's rigid motion on its joint (``solve.damping``); else None."""
     if damp.get("model") != "rayleigh_deformation" or damp["a0"] == 0.0:
         return None
-    from ..fe.blocks import block_rigid_modes
-    from ..solve.damping import DeformationDamping
     iface = model.interface
     R, cents = block_rigid_modes(model)
     return DeformationDamping(model.M, R, cents, iface.B, iface.x, iface.y, iface.w,

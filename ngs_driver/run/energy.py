@@ -1,4 +1,4 @@
-"""The energy budget of a run, step by step (docs/solver.md §9).
+"""The energy budget of a run, step by step (docs/run.md §9).
 
 From the static state (t = 0) on, per metre of dam [J/m]:
 
@@ -52,13 +52,14 @@ import numpy as np
 from numba import njit
 
 from ..solve.products import FusedPair, pair_products
+from .parts import Part
 
 __all__ = ["EnergyBudget", "EnergyGuard", "stored_energy", "ENERGY_KEYS", "GUARD_FRACTION",
            "GUARD_FLOOR", "GUARD_SPLITS"]
 
-# The energy guard (``EnergyGuard``, docs/solver.md §9.1): a step that creates more energy than
+# The energy guard (``EnergyGuard``, docs/run.md §9.1): a step that creates more energy than
 # GUARD_FRACTION of the work done in it plus GUARD_FLOOR of the run's energy scale is cut.
-# 0.5: on koyna_1967 (10 s, 2026-11-27) the largest ratio of created energy to work is 0.13
+# 0.5: on koyna_1967 (10 s; docs/run.md §9.1) the largest ratio of created energy to work is 0.13
 # (t = 4.912 s: 7.0e3 J/m for 5.4e4 J/m, 0.21 of its limit), 99.9 % of the steps are below
 # 0.040; pine_flat (54.38 s) 0.021 (t = 27.9 s), 99.9 % below 0.0052, its largest jump 163 J/m
 # (6.88 s) 0.0074 of its limit; the step of the re-pairing bug (koyna_1967, 3.642 s) created
@@ -137,7 +138,7 @@ def _km_vectors(u, v, f, u0, v0, f0, Ku0, Mv0, Ku, Mv, du, fs, ms, vs, kd):
         f0[i] = f[i]
 
 
-class EnergyBudget:
+class EnergyBudget(Part):
     """Accumulates the budget; ``start`` at the static state, ``step`` after each step.
 
     rayleigh = (a0, a1) says that C = a0 M + a1 K + C_extra (C_extra: None or a sparse
@@ -295,7 +296,7 @@ class EnergyBudget:
         return row
 
     def rebase_gap(self, g):
-        """The joints' gap was re-based without motion (a joint paired anew, run/sliding: a
+        """The joints' gap was re-based without motion (a joint paired anew, run/pairing: a
         point that slid off its face is opened by ``OPEN_GAP``): the next step's joint work
         starts from ``g`` (npts, 2), so that the jump books no work (no traction acts over it)."""
         self._tg = (self._tg[0], np.ascontiguousarray(g, dtype=np.float64).ravel().copy())
@@ -306,34 +307,39 @@ class EnergyBudget:
         return list(ENERGY_KEYS[:-1]) + [f"{n}_{k}" for n in self.joints.names
                                          for k in ("E_stored", "E_diss")] + water + ["residual"]
 
-    def state(self) -> dict:
-        """What a checkpoint must keep to continue the budget bitwise."""
+    # a run part (run.parts): the budget's row of the step is formed in the solve (the energy
+    # guard checks it there); after the step it goes into the history row
+    name = "energy"
+
+    def after_step(self, ctx):
+        ctx.row.update(ctx.energy)
+
+    def checkpoint(self) -> dict:
+        """What a checkpoint (or a repeat of the step) must keep to continue bitwise."""
         u0, v0, f0 = self._prev
         k0, b0, s0, d0 = self._ref
-        return {"energy_prev_u": u0.copy(), "energy_prev_v": v0.copy(),
-                "energy_prev_f": f0.copy(),
-                "energy_ref": np.array([k0, b0, *s0, *d0]),
-                "energy_acc": np.array([self.W_ext, self.E_damp, self.E_scaling,
-                                        self.W_joints]),
-                "energy_joint_wt": self._tg[0].copy(), "energy_joint_g": self._tg[1].copy()}
+        return {"prev_u": u0.copy(), "prev_v": v0.copy(), "prev_f": f0.copy(),
+                "ref": np.array([k0, b0, *s0, *d0]),
+                "acc": np.array([self.W_ext, self.E_damp, self.E_scaling, self.W_joints]),
+                "joint_wt": self._tg[0].copy(), "joint_g": self._tg[1].copy()}
 
     def restore(self, arrs):
-        self._prev = tuple(_vec(arrs[f"energy_prev_{x}"], self._km.n).copy() for x in "uvf")
-        r = arrs["energy_ref"]
+        self._prev = tuple(_vec(arrs[f"prev_{x}"], self._km.n).copy() for x in "uvf")
+        r = arrs["ref"]
         nj = len(self.joints.names)
         self._ref = (float(r[0]), float(r[1]), [float(x) for x in r[2:2 + nj]],
                      [float(x) for x in r[2 + nj:2 + 2 * nj]])
-        acc = [float(x) for x in arrs["energy_acc"]]
+        acc = [float(x) for x in arrs["acc"]]
         self.W_ext, self.E_damp, self.E_scaling = acc[:3]
         self.W_joints = acc[3]
-        self._tg = (np.array(arrs["energy_joint_wt"]), np.array(arrs["energy_joint_g"]))
+        self._tg = (np.array(arrs["joint_wt"]), np.array(arrs["joint_g"]))
         u0, v0, _ = self._prev              # the products the run had (bitwise the same)
         Ku, Mv = self._km.products(_vec(u0, self._km.n), _vec(v0, self._km.n))
         self._prods = (Mv, Ku)
 
 
-class EnergyGuard:
-    """No verdict from a step that breaks the energy balance (docs/solver.md §9.1).
+class EnergyGuard(Part):
+    """No verdict from a step that breaks the energy balance (docs/run.md §9.1).
 
     From two consecutive rows of the budget (``EnergyBudget.step``), the step's
 
@@ -349,7 +355,7 @@ class EnergyGuard:
     dissipation (generalized alpha, HHT) only increases it. The water's share of the scheme's
     exchange, E_water_alg (either sign, fixed by the scheme's algebra), is booked apart and
     not in it; a water stepped otherwise (pine_flat's, stepped twice by the uplift's fixed
-    point until the solver's checkpoint held it, docs/solver.md §9.1) still shows. A step is
+    point until the solver's saved state held it, docs/run.md §9.1) still shows. A step is
     rejected when
 
         jump > GUARD_FRACTION * work + GUARD_FLOOR * scale,
@@ -358,7 +364,8 @@ class EnergyGuard:
     |W_water| so far). The run then repeats it from the committed state in 2, 4, ... uniform
     sub-steps (``JointSolver.step(split=k)``) and stops with an error after GUARD_SPLITS
     halvings: such a step is never accepted. The cost: a few scalar differences per step
-    (the budget is formed anyway), and a copy of the committed state (``JointSolver.checkpoint``).
+    (the budget is formed anyway), and a copy of the committed state
+    (``run.checkpoint.SolverPart``).
     """
 
     def __init__(self, e_static: float = 0.0, fraction: float = GUARD_FRACTION,
@@ -410,19 +417,26 @@ class EnergyGuard:
             self.max_ratio = max(self.max_ratio, jump / limit)
         return True, ""
 
-    def state(self) -> dict:
-        """What a checkpoint keeps (JSON): the scale's static part and the maxima so far."""
-        return {"e_static": self.e_static, "cuts": self.cuts, "max_jump": self.max_jump,
-                "max_jump_t": self.max_jump_t, "max_ratio": self.max_ratio}
+    # a run part (run.parts): it judges the step inside the solve (``check``)
+    name = "guard"
 
-    def restore(self, d, row):
-        """A resumed run: ``state()``'s dict and the last history row (its budget terms)."""
-        self.e_static = abs(float(d.get("e_static", 0.0)))
-        self.start(row)
-        self.cuts = int(d.get("cuts", 0))
-        self.max_jump = float(d.get("max_jump", 0.0))
-        self.max_jump_t = d.get("max_jump_t")
-        self.max_ratio = float(d.get("max_ratio", 0.0))
+    def checkpoint(self) -> dict:
+        """What a checkpoint keeps (JSON): the last accepted step's terms, the energy scale,
+        and the maxima so far."""
+        return {"e_static": self.e_static, "prev": None if self.prev is None
+                else list(self.prev), "scale": self.scale, "cuts": self.cuts,
+                "max_jump": self.max_jump, "max_jump_t": self.max_jump_t,
+                "max_ratio": self.max_ratio}
+
+    def restore(self, d):
+        """A resumed run: ``checkpoint()``'s dict."""
+        self.e_static = float(d["e_static"])
+        self.prev = None if d["prev"] is None else tuple(float(x) for x in d["prev"])
+        self.scale = float(d["scale"])
+        self.cuts = int(d["cuts"])
+        self.max_jump = float(d["max_jump"])
+        self.max_jump_t = d["max_jump_t"]
+        self.max_ratio = float(d["max_ratio"])
 
     def summary(self) -> dict:
         return {"max_step_jump": self.max_jump, "max_step_jump_t": self.max_jump_t,
@@ -430,4 +444,4 @@ class EnergyGuard:
                 "guard": f"a step is cut when the energy it creates, -d(residual + E_alg), > "
                          f"{self.fraction:g} x (|d W_ext| + |d W_water| + |d W_joints| + "
                          f"d E_damp) + {self.floor:g} x max(static strain energy, |W_ext| + "
-                         f"|W_water|); docs/solver.md §9.1"}
+                         f"|W_water|); docs/run.md §9.1"}

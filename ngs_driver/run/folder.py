@@ -1,5 +1,5 @@
 """The results folder of a run: owned by one run at a time, writable before any work, and never
-emptied of what the user did not ask to delete (docs/solver.md §8.5).
+emptied of what the user did not ask to delete (docs/run.md §6).
 
 * ``FolderLock``: an OS file lock (``fcntl.flock``) on ``.dam-seismic.lock`` in the folder, held
   while the run lives; the kernel releases it when the process ends, however it ends (a kill

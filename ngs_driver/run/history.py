@@ -7,6 +7,8 @@ import operator
 
 import numpy as np
 
+from .parts import Part
+
 
 # per-step histories: the CSV column order. The unprefixed crack/damage columns are the base's
 # (kept under their original names; "base_<key>" columns hold the same values with the lift
@@ -47,7 +49,7 @@ class History:
 
     @classmethod
     def from_arrays(cls, d, keys=HIST_KEYS):
-        cols = [np.asarray(d[f"hist_{k}"], dtype=float) for k in keys]
+        cols = [np.asarray(d[k], dtype=float) for k in keys]
         n = cols[0].size if cols else 0
         h = cls(keys, capacity=max(1024, 2 * n))
         for i, c in enumerate(cols):
@@ -67,9 +69,12 @@ def snapshot_steps(n_steps: int, count: int) -> list[int]:
 SNAP_KEYS = ("step", "t", "D", "kappa", "opening", "slip")
 
 
-class Snapshots:
+class Snapshots(Part):
     """The joints' profiles (damage D, kappa, opening, slip at every point) at
-    ``output.snapshots`` times spread over the record, and at the static state (step 0)."""
+    ``output.snapshots`` times spread over the record, and at the static state (step 0); a
+    run part (``run.parts``)."""
+
+    name = "snapshots"
 
     def __init__(self, n_steps: int, count: int):
         self.steps = set(snapshot_steps(n_steps, count))
@@ -89,12 +94,52 @@ class Snapshots:
     def last_step(self) -> int:
         return self.data["step"][-1]
 
-    def arrays(self) -> dict:
-        return {f"snap_{k}": np.asarray(v) for k, v in self.data.items()}
+    def after_step(self, ctx):
+        if self.due(ctx.k):
+            self.take(ctx.k, ctx.t, ctx.solver)
 
-    def restore(self, arrs):
+    def checkpoint(self) -> dict:
+        return {k: np.asarray(v) for k, v in self.data.items()}
+
+    def restore(self, d):
         self.data = {k: [float(v) if k == "t" else (int(v) if k == "step" else v)
-                         for v in arrs[f"snap_{k}"]] for k in SNAP_KEYS}
+                         for v in d[k]] for k in SNAP_KEYS}
+
+
+class StepHistory(Part):
+    """The history as a run part (``run.parts``): the step's own columns (time, crest,
+    the solver's work, the base's damage columns) added to the row the parts before it
+    formed, and the row appended. ``history``: the ``History`` (None before the static
+    state)."""
+
+    name = "history"
+
+    def __init__(self, keys, crest_dofs):
+        self.keys = list(keys)
+        self.crest_dofs = crest_dofs
+        self.history = None
+
+    def start(self):
+        self.history = History(self.keys)
+
+    def after_step(self, ctx):
+        s, rep, jm, st = ctx.solver, ctx.report, ctx.measures, ctx.state
+        cx, cy = self.crest_dofs
+        self.history.append(
+            step=ctx.k, t=ctx.t, crest_ux=s.u[cx], crest_uy=s.u[cy],
+            iterations=rep.iterations, iterations_failed=rep.iterations_failed, cuts=rep.cuts,
+            substeps=len(rep.dts), n_active=rep.n_active, n_debonded=jm["base_n_debonded"],
+            crack_length=jm["base_crack_length"],
+            crack_length_heel=jm["base_crack_length_upstream"], max_D=jm["base_max_D"],
+            D_heel=float(st.damage[0]), kappa_heel=float(st.kappa[0]),
+            size_b=jm["base_size_b"], sigma_max=jm["base_sigma_max"], wall=rep.wall,
+            **ctx.row)
+
+    def checkpoint(self) -> dict:
+        return self.history.arrays()
+
+    def restore(self, d):
+        self.history = History.from_arrays(d, self.keys)
 
 
 
@@ -129,3 +174,30 @@ def results_from_history(H) -> dict:
         "max_size_b": float(H["size_b"].max()),
         "min_sigma_max": float(H["sigma_max"].min()),
     }
+
+
+class HeelOpening(Part):
+    """The state of the largest heel opening while the base still holds a bonded point (the
+    paper's Fig. 12 shows it), a run part (``run.parts``): ``u`` the displacements, ``t`` the
+    time, ``open`` the heel's opening."""
+
+    name = "heel"
+
+    def __init__(self, base):
+        self.base = base                  # the base joint's point slice
+        self.u, self.t, self.open = None, 0.0, 0.0
+
+    def start(self, u, opening):
+        self.u, self.t, self.open = u.copy(), 0.0, float(opening)
+
+    def after_step(self, ctx):
+        g = ctx.solver.g
+        if (ctx.measures["base_n_debonded"] < self.base.stop - self.base.start
+                and g[0, 0] > self.open):
+            self.u, self.t, self.open = ctx.solver.u.copy(), float(ctx.t), float(g[0, 0])
+
+    def checkpoint(self) -> dict:
+        return {"u": self.u, "t": self.t, "open": self.open}
+
+    def restore(self, d):
+        self.u, self.t, self.open = np.array(d["u"]), float(d["t"]), float(d["open"])

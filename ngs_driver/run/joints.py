@@ -12,13 +12,14 @@ from numba import njit
 
 from ..setup import build_law, build_scaling
 from ..solve.joint_laws import JointLaws
-from .sliding import OPEN_GAP
+from .pairing import OPEN_GAP
+from .parts import Part
 
-# a point whose normal gap exceeds this has slid off the face below it (run/sliding opens such
+# a point whose normal gap exceeds this has slid off the face below it (run/pairing opens such
 # a point by OPEN_GAP = 1 m; a real opening of half a metre is far outside the model anyway)
 OFF_FACE_GAP = 0.5 * OPEN_GAP
 
-__all__ = ["Joints", "JointScan", "crack_measures", "debonded_measures", "JOINT_KEYS"]
+__all__ = ["Joints", "SizeScale", "JointScan", "crack_measures", "debonded_measures", "JOINT_KEYS"]
 
 # per-joint history columns, prefixed "<joint>_" in timeseries.csv
 JOINT_KEYS = ("crack_length", "crack_length_upstream", "n_debonded", "max_D", "D_upstream",
@@ -167,21 +168,25 @@ def _c2(a):
     return a.reshape(-1, 2)
 
 
-class Joints:
+class Joints(Part):
     """The joints of a run (the base first, then the lift joints bottom up): names, point
     slices of the joint operator ``iface``, each joint's reference law, its size scaling and
-    its current (size-scaled) law, and the per-step measures."""
+    its current (size-scaled) law, and the per-step measures; a run part (``run.parts``):
+    after each step its measures are the step's ``measures`` and history columns."""
 
-    def __init__(self, scene, iface):
-        tables = scene.joint_tables()
-        self.names = [n for n, _ in tables]
-        self.tables = [t for _, t in tables]
+    name = "joints"
+
+    def __init__(self, joints, iface):
+        """joints: the scene's ``setup.JointInput``s (``setup.resolve(scene).joints``)."""
+        self.names = [j.name for j in joints]
+        self.tables = [j.law for j in joints]
+        self._cracked = [j.cracked for j in joints]
         self.slices = [iface.parts[n] for n in self.names]
         self.x, self.y, self.w = iface.x, iface.y, iface.w
         self.reference = [build_law(t) for t in self.tables]
         self.scalings = [build_scaling(t, law) for t, law in zip(self.tables, self.reference)]
-        self.laws = [sc.update(law, 0.0) if sc is not None else law
-                     for sc, law in zip(self.scalings, self.reference)]
+        self.laws = [scal.update(law, 0.0) if scal is not None else law
+                     for scal, law in zip(self.scalings, self.reference)]
         self.sizes = [0.0] * len(self.names)
         # the failed length each law was last updated for: the update is a function of it
         # alone, so an unchanged length leaves the law and the size as they are (skipped)
@@ -214,7 +219,7 @@ class Joints:
 
     def _slip_rotation(self, i, sl, g) -> tuple[float, float]:
         """(mean slip, rotation) of joint i from its gaps g. Points that slid off the face
-        below (run/sliding opens them by OPEN_GAP) are left out: their gap is not the body's
+        below (run/pairing opens them by OPEN_GAP) are left out: their gap is not the body's
         motion (one such point at the end of koyna_1967's neck read as 1.6e-3 rad)."""
         off = g[:, 0] > OFF_FACE_GAP
         if off.any() and not off.all():
@@ -246,8 +251,8 @@ class Joints:
     def cracked_points(self) -> np.ndarray:
         """Bool mask of the points of the joints that start cracked (``cracked = true``)."""
         mask = np.zeros(self.w.size, bool)
-        for tbl, sl in zip(self.tables, self.slices):
-            if getattr(tbl, "cracked", False):
+        for cracked, sl in zip(self._cracked, self.slices):
+            if cracked:
                 mask[sl] = True
         return mask
 
@@ -262,8 +267,8 @@ class Joints:
         sums)."""
         changed = False
         deb = None
-        for i, (sc, sl) in enumerate(zip(self.scalings, self.slices)):
-            if sc is None:
+        for i, (scal, sl) in enumerate(zip(self.scalings, self.slices)):
+            if scal is None:
                 self.sizes[i] = 0.0
                 continue
             if scan is not None:
@@ -274,11 +279,11 @@ class Joints:
                 b = float(np.sum(self.w[sl][deb[sl]]))     # crack_measures(...)[0]
             if b == self._b[i]:
                 continue
-            new = sc.update(self.laws[i], b)
+            new = scal.update(self.laws[i], b)
             if new.cohesive != self.laws[i].cohesive or new.friction != self.laws[i].friction:
                 self.laws[i] = new
                 changed = True
-            self.sizes[i] = sc.size(b)
+            self.sizes[i] = scal.size(b)
             self._b[i] = b
         return changed
 
@@ -319,8 +324,44 @@ class Joints:
     def history_keys(self) -> list[str]:
         return [f"{n}_{k}" for n in self.names for k in JOINT_KEYS]
 
+    def after_step(self, ctx):
+        ctx.measures = self.measures(ctx.state, ctx.solver.g, ctx.scan)
+        ctx.row.update(ctx.measures)
+
+    def checkpoint(self) -> dict:
+        return {"static_motion": self.static_motion}
+
+    def restore(self, d):
+        self.static_motion = d["static_motion"]
+
     def params(self) -> list[dict]:
         return [{"sigma_max": lw.cohesive.sigma_max, "tau_max": lw.cohesive.tau_max,
                  "l_Nc": lw.cohesive.l_Nc, "l_Tc": lw.cohesive.l_Tc,
                  "friction": None if lw.friction is None else lw.friction.f}
                 for lw in self.laws]
+
+
+class SizeScale(Part):
+    """The size-scale update of every joint's law from its failed length (paper §2), a run
+    part (``run.parts``): after each step, the laws of the next; the solver gets the new law
+    and the energy budget books the energy the change of law releases. Its checkpoint is
+    empty: the laws follow from the committed interface state (``restore``)."""
+
+    name = "size_scale"
+
+    def __init__(self, joints, solver, energy):
+        self.joints, self.solver, self.energy = joints, solver, energy
+
+    def update(self, state, book_energy: bool = True, scan=None):
+        old = list(self.joints.laws)
+        if self.joints.update(state, scan):
+            self.solver.set_law(self.joints.solver_law())
+            if book_energy:
+                self.energy.law_update(old, self.solver.g, state)
+
+    def after_step(self, ctx):
+        self.update(ctx.state, scan=ctx.scan)
+
+    def restore(self, d):
+        """The laws of the restored solver's state (its energy was booked before)."""
+        self.update(self.solver.state, book_energy=False)

@@ -6,6 +6,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..solve.stepping import SolverError
+from .checkpoint import SolverPart
 from .safety import FS_CAP, FS_CRITERION
 from .statics import spring_supported
 
@@ -24,8 +26,8 @@ def resultant_verdict(fs: float) -> str:
 
 
 class PostEarthquakeCheck:
-    def __init__(self, scene, model, joints, safety, uplift, absorbing=None):
-        self.scene, self.joints = scene, joints
+    def __init__(self, max_slip: float, model, joints, safety, uplift, absorbing=None):
+        self.max_slip, self.joints = float(max_slip), joints
         self.safety, self.uplift, self.absorbing = safety, uplift, absorbing
         # dam DOFs and the x / y components (the load resultants when no equilibrium exists)
         self.dam = np.asarray(model.dam_dofs, bool)
@@ -37,13 +39,12 @@ class PostEarthquakeCheck:
         """The largest mean slip a static solve may add before it counts as no equilibrium
         (a frictional joint that cannot hold the loads slides without bound): 0.05 m, or
         time.max_slip if smaller."""
-        return min(self.scene.time.max_slip, 0.05)
+        return min(self.max_slip, 0.05)
 
     def run(self, solver, f_base_static) -> dict:
         """``f_base_static``: gravity + water (+ tailwater), without uplift. A solve that finds
         no equilibrium reports FS from the load resultants (statically determinate for a
         rigid block) and says so."""
-        from ..solve.joint_solver import SolverError
 
         uplift = self.uplift
         if self.absorbing is not None:       # unsupported rock: the static springs again
@@ -51,7 +52,8 @@ class PostEarthquakeCheck:
             solver = spring_supported(main, self.absorbing.K_support)
             solver.set_initial(u=main.u)
         uplift.p = uplift.pressure(solver.state)
-        final = solver.checkpoint()
+        saved = SolverPart(solver)
+        final = saved.checkpoint()
         slip0 = self._mean_slips(solver.g)
         try:
             # no relaxation at a limit load here (it is for the crack growth of the
@@ -74,7 +76,7 @@ class PostEarthquakeCheck:
             ok, note = True, "static solve from the final interface state"
             iters = int(rep.iterations)
         except SolverError as e:
-            solver.restore(final)
+            saved.restore(final)
             uplift.p = uplift.pressure(solver.state)
             m = self._resultant_measures(solver, f_base_static)
             ok, iters = False, None

@@ -1,8 +1,8 @@
-"""The reservoir during a run: the fluid stepper attached to the solver, the hydrodynamic
+"""The reservoir during a run: the fluid stepper coupled to the solver, the hydrodynamic
 pressure on the upstream face sampled after every step, and their checkpoints. The files are
 written by ``post.reservoir``.
 
-``ReservoirRun.create(model, scene, times, ax, ay)`` returns None when the scene has no
+``ReservoirRun.create(model, times, ax, ay, total)`` returns None when the model has no
 hydrodynamic reservoir.  For compressible acoustic water it builds the ``FluidStepper``
 (solve/fluid.py), the coupled field (``field``) that the run gives to the solver's constructor:
 the pressure then lives in the solver's steps; for incompressible water and Westergaard the
@@ -11,18 +11,26 @@ built.
 """
 from __future__ import annotations
 
-import pathlib
-
 import numpy as np
+
+from ..fe.acoustic import PressureProbe, face_chain
+from ..solve.fluid import FluidStepper, GroundPressureLoad
+from .parts import Part
 
 __all__ = ["ReservoirRun", "FRACTIONS"]
 
 FRACTIONS = (0.0, 0.25, 0.5, 0.75, 0.9)      # elevations / level at which p is sampled
 
 
-class ReservoirRun:
-    def __init__(self, model, scene, times, ax, ay, restart=None, out=None):
-        self.model, self.scene = model, scene
+class ReservoirRun(Part):
+    """The reservoir of a run, a run part (``run.parts``): after each step the face
+    pressures and the force are sampled; its checkpoint is the sampled history (the water's
+    own state is the solver's: ``run.checkpoint.SolverPart``)."""
+
+    name = "reservoir"
+
+    def __init__(self, model, times, ax, ay, total: bool):
+        self.model = model
         self.solver = None                       # set by the run once the solver is built
         self.res = model.reservoir
         self.times, self.ax, self.ay = times, ax, ay
@@ -34,66 +42,39 @@ class ReservoirRun:
         self.ys = [f * self.level for f in FRACTIONS]
         for y in self.ys:
             self.rows[f"p_y{y:.2f}"] = []
-        self.out = None if out is None else pathlib.Path(out)
-        # absorbing rock boundaries: the run is in total displacements (the record enters as
-        # free-field forces), so the face's own motion is already in u'' and only the bottom /
-        # a rigid far end are driven by a_g
-        self.total = getattr(scene.geometry, "rock_sides", None) == "absorbing"
+        # absorbing rock boundaries (total): the run is in total displacements (the record
+        # enters as free-field forces), so the face's own motion is already in u'' and only
+        # the bottom / a rigid far end are driven by a_g
+        self.total = bool(total)
         self.g = None
         if self.ac is not None:
             self.g = ((self.ac.W.b_x, self.ac.W.b_y) if self.total
                       else (self.ac.g_x, self.ac.g_y))
         if self.ac is not None and not self.ac.incompressible:
-            from ..solve.fluid import FluidStepper
             self.stepper = self.field = FluidStepper(self.ac, self.ground, self.g)
         elif self.ac is not None and self.total:
-            from ..solve.fluid import GroundPressureLoad
             self.field = GroundPressureLoad(self.ac, self.ground)
-        if restart is not None:
-            self._restore(*restart)
         self._pts = self.ac.face_stations(FRACTIONS) if self.ac is not None else None
         self._mips = None
+        self._probe = None
 
     @classmethod
-    def create(cls, model, scene, times, ax, ay, restart=None, out=None):
-        """restart: (meta, arrays) of the checkpoint a resumed run starts from, else None."""
+    def create(cls, model, times, ax, ay, total: bool):
+        """None when the model has no hydrodynamic reservoir."""
         if getattr(model, "reservoir", None) is None:
             return None
-        return cls(model, scene, times, ax, ay, restart, out)
+        return cls(model, times, ax, ay, total)
 
-    # -- checkpoints: the water state and the pressure history, in the run's checkpoint -----
-    def checkpoint_arrays(self) -> dict:
-        """The water state and the sampled pressure history (``reservoir_`` arrays of the
-        run's checkpoint: committed with the rest of the run's state, run/checkpoint.py)."""
-        arrs = {f"reservoir_rows_{key}": np.asarray(v) for key, v in self.rows.items()}
-        if self.stepper is not None:
-            arrs.update({f"reservoir_fluid_{key}": v for key, v in self.stepper.checkpoint().items()})
-        return arrs
+    def after_step(self, ctx):
+        self.sample(ctx.k, ctx.t)
 
-    def _restore(self, meta, arrs):
-        if "reservoir_rows_t" in arrs:
-            pre, d = "reservoir_", arrs
-        else:                        # a checkpoint of an earlier version: its own file
-            k = int(meta["step"])
-            path = None if self.out is None else self.out / f"reservoir_state_{k:07d}.npz"
-            if path is None or not path.exists():
-                raise ValueError(f"--resume: the checkpoint (step {k}) in {self.out} has no "
-                                 "reservoir state (written by an earlier version, its "
-                                 f"reservoir_state_{k:07d}.npz is missing); allowed: rerun "
-                                 "without --resume (--overwrite)")
-            with np.load(path) as z:
-                pre, d = "", {q: z[q] for q in z.files}
+    def checkpoint(self) -> dict:
+        """The sampled pressure history (the water state is in the solver's part)."""
+        return {f"rows_{key}": np.asarray(v) for key, v in self.rows.items()}
+
+    def restore(self, d):
         for key in self.rows:
-            self.rows[key] = list(d[f"{pre}rows_{key}"])
-        if self.stepper is not None:
-            f = f"{pre}fluid_"
-            self.stepper.restore({q[len(f):]: d[q] for q in d if q.startswith(f)})
-
-    def clear_checkpoints(self):
-        """The run is complete: the water states of earlier versions' checkpoints go too."""
-        if self.out is not None:
-            for q in self.out.glob("reservoir_state_*.npz"):
-                q.unlink(missing_ok=True)
+            self.rows[key] = list(d[f"rows_{key}"])
 
     def ground(self, t):
         """Ground acceleration at time t (linear between the record samples, as the loads)."""
@@ -133,8 +114,7 @@ class ReservoirRun:
             self.rows[f"p_y{y:.2f}"].append(float(v))
 
     def _station_values(self, p):
-        if getattr(self, "_probe", None) is None:
-            from ..fe.acoustic import PressureProbe
+        if self._probe is None:
             # stations on the face: evaluate 1 mm inside the water (the point search may return
             # the dam's element on the face itself, where the water field is not defined)
             pts = [(x - 1e-3, max(y, 1e-3)) for x, y in self._pts]
@@ -143,7 +123,6 @@ class ReservoirRun:
 
     def _face_ax(self, acc):
         """x-acceleration of the dam at the face stations (elevations self.ys)."""
-        from ..fe.acoustic import face_chain
         m = self.model
         if self._mips is None:
             ch = face_chain(m.mesh, self.level)

@@ -33,28 +33,39 @@ theta_neck are left out). Both are formed once per step from theta predicted at 
 end from the committed u, v, a (theta_n + h theta'_n + h^2/2 theta''_n) and held through the
 step's Newton iterations (the dt study of verification/rocking.py shows the lag).
 
-**Toppling** (``check``): the block above a joint topples when the exact moment of the static
-loads about its pivot turns it further (sign(theta) M_s(theta) > 0: its weight's resultant
-passed the end of the joint, theta past atan(b/h) for a rigid rectangle on a rigid base). The
-run ends with verdict collapse, mode "toppling", the joint, the time and the toppling angle of
-the static loads (where M_s(theta) = 0).
+As a run part (``run.parts``, listed just before the collapse rule): ``before_step`` adds the
+P-Delta load to the step's load and sets the gap offset (the energy budget's gap is rebased on
+it: the offset books no work), ``after_step`` sets the run's stop on toppling (when no part
+set one yet), and its checkpoint holds the solver's gap offset, which it changes every step:
+on resume it is put back after the pairing's (which restores the offset of its last pairing).
+
+**Toppling** (``toppled``, the part's ``after_step``): the block above a joint topples when the
+exact moment of the static loads about its pivot turns it further (sign(theta) M_s(theta) > 0:
+its weight's resultant passed the end of the joint, theta past atan(b/h) for a rigid rectangle
+on a rigid base). The run ends with verdict collapse, mode "toppling", the joint, the time and
+the toppling angle of the static loads (where M_s(theta) = 0).
 """
 from __future__ import annotations
 
 import numpy as np
 import scipy.sparse as sp
 
+from ..fe.blocks import linear_fields
+from .parts import Part
+
 __all__ = ["FiniteRotation"]
 
 
-class FiniteRotation:
-    """The finite-rotation corrections of every joint of a run: ``before_step`` (the gap's
-    offset and the P-Delta load of the step), ``after_step`` (the toppling check),
-    ``checkpoint()`` / ``restore(d)``."""
+class FiniteRotation(Part):
+    """The finite-rotation corrections of every joint of a run, a run part: ``before_step``
+    (the gap's offset and the P-Delta load of the step: ``step_load``), ``after_step`` (the
+    toppling check: ``toppled``), ``checkpoint()`` / ``restore(d)``. energy: the run's
+    ``EnergyBudget`` (its gap is rebased on the offset), or None."""
 
-    def __init__(self, model, joints, solver, Mrx, Mry):
-        from ..fe.blocks import linear_fields
+    name = "rotation"
 
+    def __init__(self, model, joints, solver, Mrx, Mry, energy=None):
+        self.solver, self.energy = solver, energy
         iface = model.interface
         self.names = list(joints.names)
         self.slices = list(joints.slices)
@@ -130,7 +141,20 @@ class FiniteRotation:
         return (np.cos(theta) - 1.0) * ml - np.sin(theta) * q
 
     # ------------------------------------------------------------------ the step
-    def before_step(self, solver, h, ax=0.0, ay=0.0):
+    def before_step(self, ctx):
+        """The step's gap offset and P-Delta load (added to the step's load)."""
+        ax, ay = ctx.ground
+        ctx.load = ctx.load + self.step_load(ctx.solver, ctx.dt, ax, ay)
+        if self.energy is not None:
+            self.energy.rebase_gap(ctx.solver.operator_gap())   # the offset books no work
+
+    def after_step(self, ctx):
+        """The run's stop (collapse, mode "toppling") when a block toppled and no part set a
+        stop yet."""
+        if ctx.stop is None:
+            ctx.stop = self.toppled(ctx.solver, ctx.k, ctx.t, ctx.static_loads)
+
+    def step_load(self, solver, h, ax=0.0, ay=0.0):
         """Form the step's corrections from theta predicted at its end (the ground's
         acceleration there ax, ay); set the solver's gap offset. Returns the P-Delta load
         (nfree) to add to the step's load."""
@@ -174,7 +198,7 @@ class FiniteRotation:
         a, b = m[j - 1], m[j]
         return float(ths[j - 1] + (ths[j] - ths[j - 1]) * (-a) / (b - a))
 
-    def after_step(self, solver, k, t, static_loads):
+    def toppled(self, solver, k, t, static_loads):
         """The collapse entry (mode "toppling") if a block toppled at step k (time t), else
         None."""
         th = self.rotations(solver.B, solver.u)
@@ -198,13 +222,16 @@ class FiniteRotation:
 
     # ------------------------------------------------------------------ checkpoints
     def checkpoint(self) -> dict:
-        return {"rotation_d_applied": self.d_applied.copy()}
+        """The offset's share of this part and the solver's gap offset as it was (the rotation
+        changes it every step; the pairing's checkpoint holds the one of its last pairing)."""
+        d = {"d_applied": self.d_applied.copy()}
+        if self.solver.g_offset is not None:
+            d["g_offset"] = np.array(self.solver.g_offset, copy=True)
+        return d
 
-    def restore(self, d, solver=None):
-        """The state of ``checkpoint()``; with ``solver``, its gap offset from the solver's
-        checkpoint arrays (``solver_g_offset``) when they hold one."""
-        if "rotation_d_applied" in d:
-            self.d_applied = np.array(d["rotation_d_applied"], dtype=np.float64)
-        off = d.get("solver_g_offset") if hasattr(d, "get") else None
-        if solver is not None and off is not None:
-            solver.set_offset(off)
+    def restore(self, d):
+        """The state of ``checkpoint()``: after the pairing's restore (the run's order of parts),
+        the solver's gap offset exactly as it was."""
+        self.d_applied = np.array(d["d_applied"], dtype=np.float64)
+        if d.get("g_offset") is not None:
+            self.solver.set_offset(np.array(d["g_offset"], dtype=np.float64))

@@ -13,6 +13,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from .parts import Part
+
 __all__ = ["SlidingSafety", "SAFETY_KEYS", "FS_CRITERION", "FS_CAP", "FS_DEFINITION"]
 
 SAFETY_KEYS = ("normal_force", "shear_force", "uplift_force", "bonded_length", "sliding_fs")
@@ -22,11 +24,17 @@ FS_DEFINITION = ("FS = (f max(N', 0) + sum over bonded points of w c) / |T| (EM 
                  "eq. 3-1; f, c the law's current values); docs/safety.md")
 
 
-class SlidingSafety:
-    """Forces and sliding factor of safety of every joint (module docstring)."""
+class SlidingSafety(Part):
+    """Forces and sliding factor of safety of every joint (module docstring); a run part
+    (``run.parts``): after each step its columns go into the history row, with the uplift
+    pressure in force (``pressure()``, zero without uplift)."""
 
-    def __init__(self, joints):
+    name = "safety"
+
+    def __init__(self, joints, pressure=None):
         self.joints = joints
+        self.pressure = pressure if pressure is not None else (
+            lambda: np.zeros(joints.w.size))
         self._step_keys = [(n, k, f"{n}_{k}") for n in joints.names for k in SAFETY_KEYS]
         self.static = None        # the static state's measures (``static_measures``)
 
@@ -58,6 +66,15 @@ class SlidingSafety:
         """The per-step history columns "<joint>_<SAFETY_KEYS>"."""
         m = self.joint_measures(t, state, p, scan)
         return {key: m[n][k] for n, k, key in self._step_keys}
+
+    def after_step(self, ctx):
+        ctx.row.update(self.step_measures(ctx.solver.t, ctx.state, self.pressure(), ctx.scan))
+
+    def checkpoint(self) -> dict:
+        return {"static": self.static}
+
+    def restore(self, d):
+        self.static = d["static"]
 
     def history_keys(self) -> list[str]:
         return [f"{n}_{k}" for n in self.joints.names for k in SAFETY_KEYS]

@@ -7,13 +7,16 @@ from __future__ import annotations
 import numpy as np
 
 from ..fe.stress import element_stress
+from .parts import Part
 
 __all__ = ["Screening"]
 
 
-class Screening:
-    def __init__(self, scene, model):
-        self.ft = float(scene.screening.tensile_strength)
+class Screening(Part):
+    name = "screening"
+
+    def __init__(self, tensile_strength: float, model):
+        self.ft = float(tensile_strength)
         es = element_stress(model)
         self.S, self.x, self.y, self.triangles = es.S, es.x, es.y, es.triangles
         n = self.x.size
@@ -56,17 +59,17 @@ class Screening:
                                   "max_dcr": float(self.max_dcr[i]),
                                   "cumulative_inelastic_duration": float(self.duration[i])}}
 
-    def checkpoint_arrays(self) -> dict:
-        return {"screen_max": self.max_dcr, "screen_tmax": self.t_max,
-                "screen_dur": self.duration,
-                "screen_static": self.static_dcr if self.static_dcr is not None
-                else np.zeros(0)}
+    def after_step(self, ctx):
+        self.update(ctx.solver.u, ctx.solver.time, ctx.solver.dt)
 
-    def restore(self, arrs):
-        if "screen_max" not in arrs:
-            return
-        self.max_dcr = np.array(arrs["screen_max"])
-        self.t_max = np.array(arrs["screen_tmax"])
-        self.duration = np.array(arrs["screen_dur"])
-        st = np.array(arrs["screen_static"])
+    def checkpoint(self) -> dict:
+        return {"max": self.max_dcr.copy(), "t_max": self.t_max.copy(),
+                "duration": self.duration.copy(),
+                "static": np.zeros(0) if self.static_dcr is None else self.static_dcr.copy()}
+
+    def restore(self, d):
+        self.max_dcr = np.array(d["max"])
+        self.t_max = np.array(d["t_max"])
+        self.duration = np.array(d["duration"])
+        st = np.array(d["static"])
         self.static_dcr = st if st.size else None

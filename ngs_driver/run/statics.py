@@ -5,13 +5,14 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..solve.joint_solver import JointSolver
+
 __all__ = ["spring_supported", "solve_pre_earthquake"]
 
 
 def spring_supported(main, K_support):
     """A solver for static solves of ``main``'s model on the support springs K_support (the
     dashpots of absorbing boundaries have no stiffness); it shares main's interface state."""
-    from ..solve.joint_solver import JointSolver
     s = JointSolver(main.K + K_support, main.M, None, main.B, main.w, main.law, dt=main.dt,
                     tol_residual=main.tol_residual, max_iter=main.max_iter)
     s.state = main.state

@@ -10,23 +10,25 @@ __all__ = ["ground_motion_summary", "reference_parameters", "joint_results", "bl
            "timings", "solver_totals"]
 
 
-def ground_motion_summary(scene, gm, note=None) -> dict:
-    """The record as read; note: ``setup.window_note`` (the window runs past its end)."""
+def ground_motion_summary(start, gm, note=None) -> dict:
+    """The record as read from ``start`` [s]; note: ``setup.window_note`` (the window runs
+    past its end)."""
     return {"label": gm.label, "synthetic": bool(gm.synthetic), "source": gm.source,
-            "dt": gm.dt, "peak_g": list(gm.peak_g()), "start": scene.ground_motion.start,
+            "dt": gm.dt, "peak_g": list(gm.peak_g()), "start": start,
             # record metadata (event, station, magnitude, PGA, citation) when the reader
             # knows it (FEMA P695 / PEER NGA records)
             "metadata": dict(getattr(gm, "meta", None) or {}), "window_note": note}
 
 
-def reference_parameters(scene, joints) -> dict:
+def reference_parameters(g_max, joints) -> dict:
     """The base's reference law, its initial stiffness as the run starts (the law scaled to
-    b_ref) and g_max / l_Nc. Taken before the first size-scale update."""
+    b_ref) and g_max / l_Nc (g_max: the base law's [m]). Taken before the first size-scale
+    update."""
     coh = joints.reference[0].cohesive
     k0 = joints.laws[0].cohesive
     return {"sigma_max": coh.sigma_max, "tau_max": coh.tau_max, "l_Nc": coh.l_Nc,
             "l_Tc": coh.l_Tc, "k_normal": k0.k_normal, "k_tangential": k0.k_tangential,
-            "g_max_over_l_Nc": scene.interface.g_max / coh.l_Nc}
+            "g_max_over_l_Nc": g_max / coh.l_Nc}
 
 
 def joint_results(joints, H, snaps) -> dict:
@@ -87,7 +89,7 @@ def energy_summary(H, keys) -> dict:
                           + "- (E_kin + E_bulk + E_damp + E_alg + E_stored + E_diss + E_scaling"
                           + (" + E_water_kin + E_water_pot + E_water_radiated + "
                              "E_water_absorbed + E_water_alg" if water else "")
-                          + "), from the static state; docs/solver.md (energy budget), "
+                          + "), from the static state; docs/run.md §9 (energy budget), "
                             "docs/real_dams.md (water)"}
 
 

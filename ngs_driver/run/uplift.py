@@ -18,8 +18,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..setup.uplift import heads, joint_extent, pressure_profile
+from ..setup.uplift import pressure_profile
+from .checkpoint import SolverPart
 from .joints import debonded_measures
+from .parts import Part
 
 __all__ = ["UpliftField", "Uplift"]
 
@@ -27,18 +29,19 @@ __all__ = ["UpliftField", "Uplift"]
 class UpliftField:
     """The pore pressure at the interface points (all joints) and its load vector."""
 
-    def __init__(self, scene, iface, names, slices):
+    def __init__(self, joints, rho_g, iface, names, slices):
+        """joints: the ``setup.JointInput``s (uplift tables, extents, heads); rho_g: the
+        water's density x gravity [N/m^3]."""
         self.names, self.slices = list(names), list(slices)
         self.B, self.w = iface.B, iface.w
         self.BT = iface.B.T.tocsr()
-        tables = dict(scene.uplift_tables())
-        rho_g = scene.loads.water_density * scene.loads.gravity
+        given = {j.name: j for j in joints}
         self.spec = []
         for name, sl in zip(self.names, self.slices):
-            up = tables[name]
-            y, xu, xd = joint_extent(scene, name)
-            hh, ht = heads(scene, y, up)
-            self.spec.append((up, iface.x[sl] - xu, xd - xu, rho_g * hh, rho_g * ht))
+            j = given[name]
+            xu, xd = j.x_upstream, j.x_downstream
+            self.spec.append((j.uplift, iface.x[sl] - xu, xd - xu, rho_g * j.head,
+                              rho_g * j.tail))
         self.active = any(s[0].model != "none" for s in self.spec)
         self.state_dependent = any(s[0].model != "none" and s[0].in_crack != "unchanged"
                                    for s in self.spec)
@@ -70,20 +73,22 @@ class UpliftField:
         return self.BT @ gv
 
     def set_operator(self, B):
-        """The gap operator of a joint paired anew (finite sliding, run/sliding.py): the
+        """The gap operator of a joint paired anew (finite sliding, run/pairing.py): the
         pressure acts on the faces that are now in contact."""
         self.B = B
         self.BT = B.T.tocsr()
 
 
-class Uplift:
+class Uplift(Part):
     """The uplift of a run: the field, the pre-earthquake pressure ``p_static``, the pressure
     in force ``p``, and the solves with the pressure of the crack state they end in."""
 
     MAX_FIXED_POINT = 20
 
-    def __init__(self, scene, iface, joints):
-        self.field = UpliftField(scene, iface, joints.names, joints.slices)
+    def __init__(self, inputs, iface, joints):
+        """inputs: the run's ``setup.RunInputs`` (its joints and rho_g)."""
+        self.field = UpliftField(inputs.joints, inputs.rho_g, iface, joints.names,
+                                 joints.slices)
         self.active = self.field.active
         self.state_dependent = self.field.state_dependent
         self.p_static = np.zeros(joints.w.size)
@@ -116,7 +121,8 @@ class Uplift:
         if not dependent:
             f = f_base + self.field.load(p) if self.active else f_base
             return call(f), p, f
-        snap = solver.checkpoint()
+        saved = SolverPart(solver)
+        snap = saved.checkpoint()
         for k in range(self.MAX_FIXED_POINT):
             f = f_base + self.field.load(p)
             rep = call(f)
@@ -126,7 +132,7 @@ class Uplift:
             self.fixed_point_iterations += 1
             if k == self.MAX_FIXED_POINT - 1:
                 break
-            solver.restore(snap)
+            saved.restore(snap)
             p = p_new
         self.fixed_point_unconverged += 1
         return rep, p, f
@@ -156,14 +162,16 @@ class Uplift:
         self.field.p = p
         return rep, f
 
-    def checkpoint_arrays(self) -> dict:
-        return {"uplift_p_static": self.p_static, "uplift_p": self.field.p,
-                "uplift_counts": np.array([self.fixed_point_iterations,
-                                           self.fixed_point_unconverged], dtype=np.int64)}
+    name = "uplift"           # a run part (run.parts): its step is in the solve (``step``)
 
-    def restore(self, arrs):
-        self.p_static = np.array(arrs["uplift_p_static"])
+    def checkpoint(self) -> dict:
+        return {"p_static": self.p_static.copy(), "p": np.array(self.field.p, copy=True),
+                "fixed_point_iterations": int(self.fixed_point_iterations),
+                "fixed_point_unconverged": int(self.fixed_point_unconverged)}
+
+    def restore(self, d):
+        self.p_static = np.array(d["p_static"])
         self.field.p_pre = self.p_static.copy()
-        self.field.p = np.array(arrs["uplift_p"])
-        self.fixed_point_iterations, self.fixed_point_unconverged = (
-            int(c) for c in arrs["uplift_counts"])
+        self.field.p = np.array(d["p"])
+        self.fixed_point_iterations = int(d["fixed_point_iterations"])
+        self.fixed_point_unconverged = int(d["fixed_point_unconverged"])

@@ -1,11 +1,14 @@
 """Stage 2 of the pipeline: scene -> what the FE model and the solver are fed (no NGSolve).
 
 ``build_law`` / ``build_scaling`` (``laws``), ``load_ground_motion`` (``records``) and
-``validate`` (everything checkable without meshing) and ``describe`` (what a run would
-build: the ``--dry-run`` answer).
+``validate`` (everything checkable without meshing), ``resolve`` / ``model_inputs`` (the
+scene resolved once into what ``fe``, ``solve`` and ``run`` are given: ``inputs``) and
+``describe`` (what a run would build: the ``--dry-run`` answer).
 """
 from __future__ import annotations
 
+from .inputs import (JointInput, ModelInputs, RunInputs, joint_inputs, k0_from_scene,
+                     model_inputs, resolve, window_note)
 from .laws import build_law, build_scaling, characteristic_times, law_parts, validate_laws
 from .records import DEFAULT_RECORDS, load_ground_motion
 from .sanity import check_scene
@@ -13,11 +16,11 @@ from .uplift import describe_uplift, validate_safety
 
 __all__ = ["FORMULATION", "build_law", "build_scaling", "characteristic_times", "law_parts",
            "load_ground_motion", "describe", "validate", "validate_laws", "window_note",
-           "DEFAULT_RECORDS"]
+           "DEFAULT_RECORDS", "JointInput", "ModelInputs", "RunInputs", "joint_inputs",
+           "k0_from_scene", "model_inputs", "resolve"]
 
 FORMULATION = ("relative (rock bottom fixed, ground acceleration as effective inertial load "
                "-M r a_g(t); displacements relative to the rigid ground motion)")
-
 
 
 def validate(scene):
@@ -42,19 +45,6 @@ def validate(scene):
                          f"({gm.label}: t = {float(gm.t[0]):g}-{end:g} s); allowed: "
                          f"[0, {end:g}) s")
     return gm
-
-
-def window_note(scene, gm) -> str | None:
-    """A note when the analysed window [start, start + duration] runs past the record's end
-    (the ground is at rest after it: zero acceleration), else None."""
-    a = scene.ground_motion.start
-    b = a + scene.time.duration
-    end = float(gm.t[-1])
-    if b > end + 1e-9 * max(1.0, end):
-        return (f"the analysed window {a:g}-{b:g} s runs past the end of the record ({end:g} "
-                f"s): the last {b - end:.4g} s have no ground motion (the ground at rest); "
-                "set time.duration (or ground_motion.start) to stay inside the record")
-    return None
 
 
 def describe(scene) -> dict:

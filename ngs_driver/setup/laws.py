@@ -9,7 +9,11 @@ from __future__ import annotations
 
 import re
 
-__all__ = ["build_law", "build_scaling", "law_parts", "validate_laws", "characteristic_times"]
+from interfacelaw import CohesiveParams, ContactParams, DamageParams, FrictionParams, InterfaceLaw
+from interfacelaw.scaling import SizeScaling, characteristic_times as ct
+
+__all__ = ["build_law", "build_scaling", "law_parts", "validate_laws", "characteristic_times",
+           "paper_k0"]
 
 # the scene key of each law parameter (class.field -> [interface] key)
 _SCENE_KEY = {"CohesiveParams.sigma_max": "sigma_max", "CohesiveParams.tau_max": "tau_max",
@@ -32,8 +36,6 @@ def _table(obj):
 def build_law(tbl):
     """InterfaceLaw of an [interface] table (or of a scene's base table): cohesive + contact
     + friction + damage, each part only if the table asks for it."""
-    from interfacelaw import (CohesiveParams, ContactParams, DamageParams, FrictionParams,
-                              InterfaceLaw)
 
     i = _table(tbl)
     coh = CohesiveParams.from_fracture_energy(i.sigma_max, i.tau_max, i.G_I, i.lambda_max,
@@ -60,7 +62,6 @@ def validate_laws(scene) -> None:
         where = "interface" if name == "base" else f"joints[{k - 1}]"
         try:
             if tbl.friction < 0:     # the friction part is built only for f > 0: check it
-                from interfacelaw import FrictionParams
                 FrictionParams(f=tbl.friction)
             law = build_law(tbl)
             build_scaling(tbl, law)
@@ -79,7 +80,6 @@ def build_scaling(tbl, law):
     i = _table(tbl)
     if not i.scaling:
         return None
-    from interfacelaw.scaling import SizeScaling
 
     f_ref = i.friction if i.friction > 0 else 0.3
     # the stick stiffness of friction stays the joint's contact stiffness as the law scales
@@ -103,10 +103,20 @@ def law_parts(tbl) -> dict:
 def characteristic_times(scene, l_Nc: float) -> dict:
     """Paper Eq. 11 for the dam concrete: t1 = rho c_L l_Nc/(2 sigma_max), t2 = a0/c_L, with
     a0 the (bonded) base width of the scene's section."""
-    from interfacelaw.scaling import characteristic_times as ct
 
     m = scene.materials.dam
     a0 = scene.section.base_width
     r = ct(m.E, m.rho, l_Nc, scene.interface.sigma_max, a0)
     return {"t1": float(r.t1), "t2": float(r.t2), "c_L": float(r.c_L), "a0": a0, "l_Nc": l_Nc,
             "material": "dam concrete", "equation": "paper Eq. 11"}
+
+
+def paper_k0(sigma_max: float = 3e6, tau_max: float = 3e6, G_I: float = 250.0,
+             lambda_max: float = 0.2, ratio_lTc_lNc: float = 1.0) -> tuple[float, float]:
+    """Initial (bonded) stiffness [Pa/m] (normal, tangential) of the paper's law:
+    k_N = sigma_max/(lambda_max l_Nc), k_T = tau_max l_Nc/(lambda_max l_Tc^2),
+    l_Nc = 2 G_I/sigma_max, l_Tc = ratio l_Nc (docs/law.md §2).
+    Paper values: 3e6 / (0.2 * 1.667e-4) = 9.0e10 Pa/m."""
+    l_nc = 2.0 * G_I / sigma_max
+    l_tc = ratio_lTc_lNc * l_nc
+    return sigma_max / (lambda_max * l_nc), tau_max * l_nc / (lambda_max * l_tc ** 2)

@@ -4,6 +4,9 @@ from __future__ import annotations
 import pathlib
 from dataclasses import replace
 
+from . import ground_motion as gmod
+from .fema_records import load_record
+
 DEFAULT_RECORDS = ("synthetic", "default")
 FEMA_PREFIX = "fema-p695:"   # FEMA P695 record sets (PEER NGA), setup/fema_records.py
 SHIPPED_PREFIX = "shipped:"  # recorded motions in ngs_driver/data with a stating header
@@ -23,14 +26,12 @@ SHIPPED_RECORDS = {          # name -> file in ngs_driver/data and what it is (d
 
 def load_ground_motion(scene):
     """The scene's record in m/s^2, scaled, components selected, resampled to dt."""
-    from . import ground_motion as gmod  # noqa: F401 (lazy: scipy)
 
     g = scene.ground_motion
     rec = g.record
     vertical = getattr(g, "vertical", "record")
     if rec.startswith(FEMA_PREFIX):
         # PEER-processed records (filtered, baseline corrected by PEER): no second baseline
-        from .fema_records import load_record
         gm = load_record(rec, vertical)
     elif rec.startswith(SHIPPED_PREFIX):
         # as the source printed it, checked against its header (no second baseline)

@@ -1,5 +1,5 @@
 """Physical sanity of a scene, checked at ``--dry-run`` (no NGSolve): values each key's range
-allows that together make a run absurd or unmeshable (docs/solver.md §8.7).
+allows that together make a run absurd or unmeshable (docs/run.md §8).
 
 * The contact stiffness against the static load: under the dam's weight a joint's faces
   overlap by delta = sigma_N / k_c (the penalty contact); delta must stay below
@@ -140,7 +140,7 @@ def _materials(scene) -> str | None:
             if (lo is not None and v < lo) or (hi is not None and v > hi):
                 rng = f">= {lo:g} {unit}" if lo is not None else f"<= {hi:g}"
                 return (f"materials.{part}.{name} = {v!r}: {why}; allowed: {rng} "
-                        "(docs/solver.md §8.7)")
+                        "(docs/run.md §8)")
     return None
 
 

@@ -222,7 +222,7 @@ class FluidStepper:
         0.01 s: |R| up to 9e-4 against |H pi| 2.2, zero to 1e-10 with Newmark), and the
         identity gains the term dpi.(R_0 + R_1)/2 rho -- work the scheme, not the ground nor
         the dam, does on the water. It is booked as E_water_alg = -sum dpi.(R_0 + R_1)/2 rho
-        (the water's share of the integrator's exchange; docs/solver.md §9.1)."""
+        (the water's share of the integrator's exchange; docs/run.md §9.1)."""
         s = self.solver
         if self._c0 is None:                  # a resumed run without the start state
             self._c0 = np.zeros_like(p0)

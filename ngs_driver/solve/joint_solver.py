@@ -233,7 +233,7 @@ class JointSolver:
     # ------------------------------------------------------------------ set-up / parameters
     def set_operator(self, B, g_offset=None):
         """Replace the gap operator between steps (a sliding joint paired anew with the face
-        below it: finite sliding, run/sliding): g = B u + g_offset. The offset that keeps the
+        below it: finite sliding, run/pairing): g = B u + g_offset. The offset that keeps the
         committed gap is formed here when ``g_offset`` is None: g_offset = g_n - B u_n. The
         effective matrices are factorised anew (they hold B^T W K0 B)."""
         B = sp.csr_matrix(B)
@@ -454,7 +454,7 @@ class JointSolver:
     def operator_gap(self):
         """(npts, 2) gap B u + g_offset of the committed u under the current operator: after a
         re-pairing (``set_operator``) it differs from the committed gap ``g`` (the law's) where
-        a point slid off its face and was opened (run/sliding)."""
+        a point slid off its face and was opened (run/pairing)."""
         return self.joints.gap(self.u).reshape(-1, 2)
 
     def internal_force(self, t):

@@ -14,6 +14,8 @@ import argparse
 import sys
 
 from ..setup import fema_records as fema
+from .fragility import parse_limit_state
+from .ida import StudyInputError, parse_list, run_ida
 
 
 def add_ida_parser(sub):
@@ -57,12 +59,10 @@ def _err(msg, code=2):
 
 
 def cmd_ida(a) -> int:
-    from .ida import StudyInputError, parse_list, run_ida
     try:
         records = parse_list(a.records, "--records", int)
         comps = parse_list(a.components, "--components", str)
         levels = parse_list(a.levels, "--levels", float)
-        from .fragility import parse_limit_state
         limit_states = [parse_limit_state(x) for x in a.limit_states]
         res = run_ida(a.scene, overrides=a.overrides, suite=a.suite, records=records,
                       components=comps, im=a.im, levels=levels, out=a.out,

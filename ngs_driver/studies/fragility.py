@@ -20,6 +20,9 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from scipy.optimize import minimize
+from scipy.special import log_ndtr
+from scipy.stats import norm
 
 # (name, demand column, threshold, description) -- the defaults (docs/studies.md). The
 # sliding thresholds span the range Chopra & Zhang (1991, J. Struct. Eng. 117(12):3572,
@@ -27,7 +30,7 @@ import numpy as np
 # feet": 1 in (25 mm), 6 in (150 mm) and 2 ft (600 mm); no published damage-state
 # thresholds for the permanent slip of a gravity dam could be read here, so these are this
 # project's choice on that range, and ``--limit-state`` sets others. A run that collapsed
-# (a joint sliding without bound, run/stopping.py) exceeds every sliding limit state.
+# (a joint sliding without bound, run/collapse.py) exceeds every sliding limit state.
 DEFAULT_LIMIT_STATES = (
     ("heel_crack_1m", "crack_heel_max_m", 1.0, "heel crack length >= 1 m"),
     ("heel_crack_5m", "crack_heel_max_m", 5.0, "heel crack length >= 5 m"),
@@ -38,7 +41,7 @@ DEFAULT_LIMIT_STATES = (
     ("residual_slip_600mm", "slip_residual_m", 0.600,
      "permanent base slip >= 600 mm (2 ft; Chopra & Zhang 1991 range)"),
     ("collapse", "collapse", 1.0, "collapse: a joint slides without bound or slides off "
-                                  "(run/stopping.py; a run that left the model's range, "
+                                  "(run/collapse.py; a run that left the model's range, "
                                   "verdict undetermined, is not a collapse)"),
     ("base_failure", "full_base_failure", 1.0, "full base failure (whole base debonded, or "
                                                 "collapse)"),
@@ -66,7 +69,6 @@ def parse_limit_state(text: str):
 
 
 def _logcdf(u):
-    from scipy.special import log_ndtr
     return log_ndtr(u)
 
 
@@ -81,7 +83,6 @@ def neg_log_likelihood(params, x, n, z) -> float:
 def fisher_se(x, n, theta: float, beta: float) -> tuple[float, float]:
     """Asymptotic standard errors (of ln theta, of beta) from the expected Fisher information
     I = sum_j n_j grad p_j grad p_j^T / (p_j (1 - p_j)) of the binomial stripes."""
-    from scipy.stats import norm
     x, n = np.asarray(x, float), np.asarray(n, float)
     u = (np.log(x) - math.log(theta)) / beta
     p = norm.cdf(u)
@@ -98,7 +99,6 @@ def fisher_se(x, n, theta: float, beta: float) -> tuple[float, float]:
 
 def fit_lognormal(levels, n, z) -> dict:
     """MLE of (theta, beta) from stripes (levels x_j > 0, n_j runs, z_j exceedances)."""
-    from scipy.optimize import minimize
     x = np.asarray(levels, float)
     n = np.asarray(n, float)
     z = np.asarray(z, float)
@@ -160,7 +160,6 @@ def fit_lognormal(levels, n, z) -> dict:
 
 def probability(x, theta: float, beta: float):
     """Lognormal fragility Phi(ln(x/theta)/beta); beta = 0 gives the step at theta."""
-    from scipy.stats import norm
     x = np.asarray(x, float)
     if beta == 0:
         return (x >= theta).astype(float)
@@ -172,7 +171,7 @@ def exceedances(rows, column: str, threshold: float, failed: str = "exceed") -> 
     reason (solver error after all cuts) count as exceeding (``failed='exceed'``, numerical
     collapse as in IDA practice) or are left out (``'exclude'``). A run that stopped because it
     left the model's range (verdict undetermined: ``time.max_slip`` / ``time.max_rotation``,
-    run/stopping.py) exceeds where the value it reached before the stop does; elsewhere its
+    run/collapse.py) exceeds where the value it reached before the stop does; elsewhere its
     outcome is unknown and it follows ``failed`` like a failed run (counting it as not
     exceeding would bias the fragility low)."""
     lv = {}

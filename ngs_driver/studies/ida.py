@@ -26,8 +26,10 @@
 from __future__ import annotations
 
 import csv
+import importlib.util
 import io
 import json
+import logging
 import math
 import os
 import pathlib
@@ -35,12 +37,24 @@ import socket
 import time
 
 import numpy as np
+from tqdm import tqdm
 
+import ngs_driver
+
+from ..fe.model import build_from_scene
+from ..post.files import atomic_write_bytes, atomic_write_json, atomic_write_text
+from ..post.outputs import RunOutputs
+from ..run import prepare
 from ..run.folder import FolderLock
+from ..run.joints import Joints
+from ..scene import from_dict, load_scene
+from ..setup import describe, joint_inputs, load_ground_motion, validate
 from ..setup import fema_records as fema
+from ..setup.ground_motion import integrate
+from ..solve.stepping import SolverError
 from . import sweep
 from .fragility import DEFAULT_LIMIT_STATES, exceedances, fit_lognormal, probability
-from .im import IM_LABEL, IMS
+from .im import IM_LABEL, IMS, first_period, scale_factor
 
 SET_ABBR = {"farfield": "ff", "nearfield_pulse": "nfp", "nearfield_no_pulse": "nfn"}
 WORKER_ENV = {"OMP_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1", "MKL_NUM_THREADS": "1",
@@ -143,8 +157,6 @@ def _check_inputs(suite, records, components, im, levels, workers, scheduler):
 
 
 def _load_base_scene(scene, overrides):
-    from ..scene import load_scene
-    from ..setup import describe
     if not hasattr(scene, "to_dict"):
         try:
             scene = load_scene(scene, overrides or [])
@@ -163,7 +175,6 @@ def _load_base_scene(scene, overrides):
 def run_scene(base, address, scale, window: str = "scene"):
     """The scene of one run. window 'scene': the scene's own start/duration; 'record': the
     whole record (start 0, duration = the record's length)."""
-    from ..scene import from_dict
     raw = base.to_dict()
     raw["ground_motion"]["record"] = address
     raw["ground_motion"]["scale"] = float(scale)
@@ -186,9 +197,8 @@ def _base_slice(scene, model):
     """The base joint's points in the interface vector (lift joints follow it); all points
     when the model has a single interface."""
     try:
-        from ..run.joints import Joints
-        return Joints(scene, model.interface).slices[0]
-    except (ImportError, AttributeError):
+        return Joints(joint_inputs(scene), model.interface).slices[0]
+    except AttributeError:
         return slice(None)
 
 
@@ -268,9 +278,6 @@ def demand_measures(summary: dict | None, rec: dict, model, base=slice(None)) ->
 
 def execute(spec: dict, root: str) -> dict:
     """One IDA run (a Dask task). Returns the result dict, also written to result.json."""
-    from ..post.files import atomic_write_json
-    from ..scene import from_dict
-    from ..solve.joint_solver import SolverError
 
     d = sweep.run_dir(root, spec)
     earlier = sweep.finished(d)
@@ -292,9 +299,6 @@ def execute(spec: dict, root: str) -> dict:
                                     "host": socket.gethostname(), "time": time.time()})
         scene = from_dict(spec["scene"])
         t0 = time.perf_counter()
-        from ..fe.model import build_from_scene
-        from ..post.outputs import RunOutputs
-        from ..run import prepare
         model = build_from_scene(scene)
         base = _base_slice(scene, model)
         status, message, summary = "ok", None, None
@@ -323,10 +327,7 @@ def execute(spec: dict, root: str) -> dict:
 
 
 def _worker_info():
-    import importlib.util
-    import ngs_driver
-    from ngs_driver.setup import fema_records as f
-    f.require_package()
+    fema.require_package()
     return {"pid": os.getpid(), "host": socket.gethostname(),
             "ngs_driver": str(pathlib.Path(ngs_driver.__file__).parent),
             "ngsolve": importlib.util.find_spec("ngsolve") is not None,
@@ -339,9 +340,9 @@ def _worker_info():
 # ---------------------------------------------------------------------------------------------
 def _connect(workers, scheduler, log):
     """(client, cluster or None); StudyInputError if the scheduler cannot be reached."""
-    import logging
 
     try:
+        # deferred: Dask is needed only when the study runs
         from dask.distributed import Client, LocalCluster
     except ImportError:
         raise fema.MissingRecordsPackage(
@@ -436,8 +437,6 @@ def run_ida(scene, *, suite: str, im: str, levels, out, records=None, components
             T1 = T1_info["T1"]
             say(f"T1 = {T1:.4f} s (f1 = {T1_info['f1_hz']:.4f} Hz, modal analysis, bonded "
                 "interface)")
-        from ..setup import validate
-        from .im import scale_factor
         cache = {}
         for p in pending:
             key = p["address"]
@@ -469,7 +468,6 @@ def run_ida(scene, *, suite: str, im: str, levels, out, records=None, components
         cl, cluster = (client, None) if client is not None else _connect(workers, scheduler, say)
         out.mkdir(parents=True, exist_ok=True)
         if T1_info is not None:
-            from ..post.files import atomic_write_json
             atomic_write_json(out / f"modal_{h}.json", T1_info)
         try:
             try:
@@ -514,8 +512,6 @@ def strong_motion_note(scene) -> str | None:
     """A note when the analysed window [start, start + duration] misses part of the record's
     strong motion (5-95 % Arias intensity, Trifunac & Brady 1975): the IM is the record's, the
     dam sees only the window."""
-    from ..setup import load_ground_motion
-    from ..setup.ground_motion import integrate
     gm = load_ground_motion(scene)
     e = integrate(np.asarray(gm.ax, float) ** 2, gm.dt)
     if e[-1] <= 0:
@@ -533,7 +529,6 @@ def strong_motion_note(scene) -> str | None:
 
 def _first_period_cached(base, out, h):
     """T1 of the scene (modal analysis); cached in DIR/modal_<hash>.json by run_ida."""
-    from .im import first_period
     p = out / f"modal_{h}.json"
     if p.exists():
         try:
@@ -546,7 +541,6 @@ def _first_period_cached(base, out, h):
 def _submit(client, pending, out, done, say, progress):
     """The pending runs on the Dask client (``sweep.Sweep``: result.json written last, a task
     that raises retried RETRIES times by Dask); one log line per finished run."""
-    from tqdm import tqdm
 
     n = len(pending)
     bar = tqdm(total=n, disable=None if progress else True, unit="run", desc="IDA",
@@ -616,7 +610,6 @@ def _error_row(p, e) -> dict:
 # outputs
 # ---------------------------------------------------------------------------------------------
 def write_outputs(out, rows, im, failed, plots, study, limit_states=None) -> list[str]:
-    from ..post.files import atomic_write_json, atomic_write_text
     out = pathlib.Path(out)
     keys = list(ROW_KEYS) + sorted({k for r in rows for k in r} - set(ROW_KEYS))
     buf = io.StringIO()
@@ -649,11 +642,11 @@ def write_outputs(out, rows, im, failed, plots, study, limit_states=None) -> lis
 
 
 def _plots(out, rows, frag, im) -> list[str]:
+    # deferred: matplotlib loads only when a figure is drawn
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from ..post.files import atomic_write_bytes
 
     def save(fig, name):
         b = io.BytesIO()

@@ -16,18 +16,21 @@ import dataclasses
 
 import numpy as np
 
+from ..fe.modal import modal_analysis
+from ..fe.model import build_from_scene
+from ..setup import k0_from_scene, load_ground_motion
+from ..setup.ground_motion import G, response_spectrum
+
 IMS = ("pga", "sa")
 ZETA = 0.05
 IM_LABEL = {"pga": "PGA [g]", "sa": "Sa(T1, 5 %) [g]"}
 
 
 def pga_g(gm) -> float:
-    from ..setup.ground_motion import G
     return float(np.max(np.abs(gm.ax))) / G
 
 
 def sa_g(gm, T: float, zeta: float = ZETA) -> float:
-    from ..setup.ground_motion import G, response_spectrum
     if not (T > 0):
         raise ValueError(f"Sa(T): period T = {T!r} s is not allowed; T must be > 0")
     return float(response_spectrum(gm.ax, gm.dt, np.array([float(T)]), zeta)[0]) / G
@@ -51,7 +54,6 @@ def unit_scene(scene):
 
 def scale_factor(scene, im: str, target: float, T1: float | None = None) -> tuple[float, float]:
     """(factor, IM of the unscaled record) such that the record times factor has IM = target."""
-    from ..setup import load_ground_motion
     if not (target > 0):
         raise ValueError(f"target {im} = {target!r} g: not allowed; must be > 0")
     gm = load_ground_motion(unit_scene(scene))
@@ -64,8 +66,6 @@ def scale_factor(scene, im: str, target: float, T1: float | None = None) -> tupl
 
 def first_period(scene) -> dict:
     """T1 [s] of the scene's dam (bonded interface), with the frequencies; builds the model."""
-    from ..fe.model import build_from_scene
-    from ..fe.modal import k0_from_scene, modal_analysis
     model = build_from_scene(scene)
     k0n, k0t = k0_from_scene(scene)
     res = modal_analysis(model, 6, k0n, k0t)

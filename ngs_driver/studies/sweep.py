@@ -17,8 +17,15 @@ from __future__ import annotations
 import concurrent.futures as cf
 import hashlib
 import json
+import os
 import pathlib
+import subprocess
+import sys
 import threading
+
+from ..apps.dam import run
+from ..post.files import atomic_write_json
+from ..scene import load_scene
 
 __all__ = ["scene_hash", "finished", "write_result", "Sweep", "RESULT"]
 
@@ -62,7 +69,6 @@ def finished(folder, h=None) -> dict | None:
 
 def write_result(folder, result: dict) -> dict:
     """``result.json`` of a run, atomically (the run's commit point: written last)."""
-    from ..post.files import atomic_write_json
     pathlib.Path(folder).mkdir(parents=True, exist_ok=True)
     atomic_write_json(pathlib.Path(folder) / RESULT, result)
     return result
@@ -158,6 +164,7 @@ class Sweep:
                     self._fail(futs[f], e, errors)
 
     def _on_dask(self, pending, done, errors):
+        # deferred: Dask is needed only when the study runs
         from dask.distributed import as_completed
         futs = {self.client.submit(_attempt, self.task, s, str(self.root.resolve()),
                                    key=f"{self.key_prefix}-{s['id']}", retries=self.retries,
@@ -197,15 +204,10 @@ def run_scene(spec, root) -> dict:
     without figures. ``spec["in_process"]``: in this process (``run.run``); else the run
     command in a subprocess (one thread for BLAS and numba; ``spec["code"]``: the source tree
     to run, default this one), its output in ``runs/<id>.log``. Returns {"id", "dir"}."""
-    import os
-    import subprocess
-    import sys
 
     d = run_dir(root, spec).resolve()
     d.mkdir(parents=True, exist_ok=True)
     if spec.get("in_process"):
-        from ..apps.dam import run
-        from ..scene import load_scene
         run(load_scene(spec["scene_name"], spec["overrides"]), d, progress=False, plots=False,
             log=lambda *a, **k: None, overwrite=True)
     else:

@@ -1,5 +1,5 @@
-"""verification/bench_speed2.py in its fast form (make bench's SPEED-2 section cannot rot): the
-four targets' rows are written into a given file, with numbers taken from the runs.
+"""verification/bench_speed_targets.py in its fast form (make bench's speed-targets section
+cannot rot): the four targets' rows are written into a given file, with numbers taken from the runs.
 
 Each check would fail if the script were wrong: the section replaces itself (written twice,
 one heading); target 1's runs took the steps of their duration (0.05 s = 25 steps of 2 ms, the
@@ -16,7 +16,7 @@ import pytest
 pytest.importorskip("ngsolve")
 
 
-from verification import bench_speed2 as b2  # noqa: E402
+from verification import bench_speed_targets as b2  # noqa: E402
 
 
 def test_fast_section_written_from_the_runs(tmp_path):

@@ -1,5 +1,5 @@
-"""The base debonding of the rate damage form at large t_ref: verification/unzip.py in its fast
-form (koyna_smoke at 0.1x, t_ref = 1e4 s; through make verify's own call).
+"""The base debonding of the rate damage form at large t_ref:
+verification/debonding_step_refinement.py in its fast form (koyna_smoke at 0.1x, t_ref = 1e4 s; through make verify's own call).
 
 The conclusion rests on one number: q, the 10 % -> 100 % debonding time of the base at the
 finest dt over that at a dt four times larger. A jump of the implicit step to another solution
@@ -20,10 +20,10 @@ from conftest import run_fast_study  # noqa: E402
 
 @pytest.fixture(scope="module")
 def res(tmp_path_factory):
-    out = tmp_path_factory.mktemp("unzip")
-    r = run_fast_study("unzip", out)
-    assert (out / "unzip.md").stat().st_size > 500
-    assert (out / "unzip.png").stat().st_size > 10_000
+    out = tmp_path_factory.mktemp("debonding_step_refinement")
+    r = run_fast_study("debonding_step_refinement", out)
+    assert (out / "debonding_step_refinement.md").stat().st_size > 500
+    assert (out / "debonding_step_refinement.png").stat().st_size > 10_000
     return r
 
 
@@ -89,7 +89,7 @@ def test_without_the_size_scale_update_the_base_unzips_much_slower(res):
 
 def test_the_verdict_rule_reads_a_jump_as_a_jump():
     """The rule itself, on a synthetic jump: one step at every dt, duration ~ dt."""
-    from verification.unzip import verdict
+    from verification.debonding_step_refinement import verdict
     rows = [{"complete": True, "dt": dt, "duration": 0.8 * dt, "steps": 1}
             for dt in (2e-3, 5e-4, 1.25e-4)]
     v = verdict(rows)

@@ -1,6 +1,8 @@
-"""SPEED-2's targets (issue 24) measured side by side, written into BENCHMARKS.md.
+"""The speed targets (a Koyna run, an IDA suite, the law's throughput, peak memory) measured side
+by side, written into BENCHMARKS.md.
 
-    python verification/bench_speed2.py [--fast] [--repeats N] [--md BENCHMARKS.md] [--only 2]
+    python verification/bench_speed_targets.py [--fast] [--repeats N] [--md BENCHMARKS.md]
+        [--only 2]
 
 1. ``dam-seismic run koyna --set ground_motion.scale=0.2 --set interface.friction=0.8`` over
    the whole record, wall from the command to summary.json, and the same run with an elastic
@@ -16,10 +18,10 @@
 4. Peak memory (max RSS, /usr/bin/time -v) of each command of ``make run``; target <= 600 MB.
 
 Each figure is written with its command and the machine's load average before and after.
-``--fast`` (tests/test_bench_speed2.py): 0.05 s runs (target 2: 2 runs of the first 0.05 s
+``--fast`` (tests/test_bench_speed_targets.py): 0.05 s runs (target 2: 2 runs of the first 0.05 s
 of their records), 10^4 points, 2 rounds, into the given file; the same code paths, figures
 not comparable with the targets. ``--only 2``: measure target 2 alone (~30 min), the others
-taken from the last ``verification/out/bench_speed2.json``.
+taken from the last ``verification/out/bench_speed_targets.json``.
 """
 from __future__ import annotations
 
@@ -52,7 +54,7 @@ for p in (ROOT, ROOT / "tests" / "bench"):
 from ngs_driver.post.files import atomic_write_text  # noqa: E402
 from verification.bench_koyna import loadavg, parse_time_v  # noqa: E402
 
-HEADING = "## SPEED-2 targets (issue 24) — `verification/bench_speed2.py`"
+HEADING = "## Speed targets — `verification/bench_speed_targets.py`"
 T1_NL = ("ground_motion.scale=0.2", "interface.friction=0.8")
 T1_EL = ("ground_motion.scale=0.001", "interface.friction=0.8", "interface.damage=false")
 MAKE_RUN = (("run-paper", "koyna"), ("run", "koyna_engineering"))
@@ -143,7 +145,7 @@ def t1_floor(nonlinear_run: dict, repeats: int = 300) -> dict:
         return statistics.median(ts)
 
     t_solve = med(lambda: F.backward(F.forward(b)))
-    # the same solve by NGSolve's own factorisations of the same matrix (SPEED-2: compare
+    # the same solve by NGSolve's own factorisations of the same matrix (compare
     # before replacing): NGSolve's sparse Cholesky, UMFPACK, MKL PARDISO when MKL is installed
     import ngsolve as ngs
     Ac = (model.K + c0 * model.M + BtWB).tocoo()
@@ -189,8 +191,8 @@ BREAKDOWN = (
     ("ngs_driver.run.joints:Joints", "scan", "bookkeeping: joint scan"),
     ("ngs_driver.run.joints:Joints", "measures", "bookkeeping: joint measures"),
     ("ngs_driver.run.safety:SlidingSafety", "step_measures", "bookkeeping: sliding safety"),
-    ("ngs_driver.run.sliding:JointPairing", "update", "bookkeeping: pairing check"),
-    ("ngs_driver.run.stopping:CollapseRule", "check", "bookkeeping: collapse rule"),
+    ("ngs_driver.run.pairing:JointPairing", "update", "bookkeeping: pairing check"),
+    ("ngs_driver.run.collapse:CollapseRule", "check", "bookkeeping: collapse rule"),
     ("ngs_driver.run.history:History", "append", "bookkeeping: history"),
 )
 
@@ -400,7 +402,7 @@ def target2(n_runs: int = T2_RUNS, workers: int = 2, duration: float | None = No
             "components": len(lengths), "hours_serial": serial,
             "hours_workers": serial / (workers * eff), "window": window,
             "loadavg": [l0, loadavg()],
-            "command": "python verification/bench_speed2.py --only 2"}
+            "command": "python verification/bench_speed_targets.py --only 2"}
 
 
 def _load(d) -> str:
@@ -438,7 +440,7 @@ def section(r: dict, fast: bool) -> list[str]:
             f"five matrix-vector sums of the step); the same solve by NGSolve's factorisations: "
             + ", ".join(f"{k} {'not available' if v is None else f'{v:.2f} ms'}"
                         for k, v in fl["ngsolve_ms"].items())
-            + f" | `bench_speed2.t1_floor` (medians) | — | "
+            + f" | `bench_speed_targets.t1_floor` (medians) | — | "
             f"{'below' if fl['floor_s'] <= 10 else 'above'} 10 s |")
     tm = t1.get("mesh")
     if tm:
@@ -452,7 +454,7 @@ def section(r: dict, fast: bool) -> list[str]:
                         f"crest {x['crest_ux_max_mm']:.2f} mm, f1 {x['f1_hz']:.3f} Hz)"
                         for x in rows)
             + f"; per step {tm['ms_per_kdof']:.3f} ms per 1000 DOFs + {tm['fixed_ms']:.2f} ms "
-            f"that no mesh removes | `bench_speed2.t1_mesh`: `{rows[-1]['command']}` | "
+            f"that no mesh removes | `bench_speed_targets.t1_mesh`: `{rows[-1]['command']}` | "
             f"{_load(rows[0])} | {ok(min(x['wall_s'] for x in rows) <= 10)} (10 s on any of "
             f"them) |")
     if t2:
@@ -473,7 +475,8 @@ def section(r: dict, fast: bool) -> list[str]:
             f"% of the task walls: the most a per-record reuse across levels could save); by "
             f"record length, per level (task wall per analysed "
             f"second × the {t2['components']} components' {t2['suite_record_s']:.0f} s): "
-            f"{ex}{errs}; runs in `verification/out/bench_speed2.json` | `{t2['command']}` | "
+            f"{ex}{errs}; runs in `verification/out/bench_speed_targets.json` | "
+            f"`{t2['command']}` | "
             f"{_load(t2)} | {ok(t2['hours_workers'] <= 2)} |")
     lines.append(
         f"| 3. full law, {t3['n']:.0e} interleaved 2D points, 1 thread ≥ 50 M points/s and ≤ "
@@ -489,7 +492,8 @@ def section(r: dict, fast: bool) -> list[str]:
     bd = t1.get("breakdown")
     if bd:
         lines += ["", f"Per-step wall of target 1's nonlinear run by part "
-                  f"(`bench_speed2.t1_breakdown`: the methods timed in-process, {bd['steps']} "
+                  f"(`bench_speed_targets.t1_breakdown`: the methods timed in-process, "
+                  f"{bd['steps']} "
                   f"steps, acoustic water, 12 198 free DOFs; a row includes the rows under it "
                   f"(—); the bookkeeping is {100 * bd['bookkeeping_share']:.0f} % of the step):",
                   "", "| part | ms/step | share |", "|---|---|---|"]
@@ -517,8 +521,8 @@ def write(md: pathlib.Path, lines: list[str]):
 
 def main(fast: bool = False, md=None, repeats: int = 2, only=None) -> dict:
     """Measure the targets in ``only`` (default all: 1, 3, 4, 2) and write the section; the
-    targets not measured now are taken from the last bench_speed2.json (their own date and
-    load are kept with them)."""
+    targets not measured now are taken from the last bench_speed_targets.json (their own date
+    and load are kept with them)."""
     from test_bench_law import setup  # noqa: F401  (fails early if the bench module moved)
     md = pathlib.Path(md) if md is not None else ROOT / "BENCHMARKS.md"
     out = md.parent / "verification" / "out" if md.parent == ROOT else md.parent
@@ -526,7 +530,9 @@ def main(fast: bool = False, md=None, repeats: int = 2, only=None) -> dict:
     only = set(only or (1, 2, 3, 4))
     dur = 0.05 if fast else None
     from verification.write_benchmarks import cpu_name
-    old = out / "bench_speed2.json"
+    old = out / "bench_speed_targets.json"
+    if not old.exists():                          # the name an earlier version wrote
+        old = out / "bench_speed2.json"
     r = json.loads(old.read_text()) if old.exists() and only != {1, 2, 3, 4} else {}
     r.update({"machine": f"{cpu_name()}, {os.cpu_count()} cores, Python {sys.version.split()[0]}",
               "date": time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime())})
@@ -567,7 +573,7 @@ if __name__ == "__main__":
     ap.add_argument("--md", default=None)
     ap.add_argument("--only", default=None,
                     help="comma-separated targets to measure now, e.g. 2 (the others from the "
-                         "last bench_speed2.json)")
+                         "last bench_speed_targets.json)")
     a = ap.parse_args()
     res = main(a.fast, a.md, a.repeats,
                None if a.only is None else [int(x) for x in a.only.split(",")])

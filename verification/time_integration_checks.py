@@ -131,12 +131,12 @@ def main(fast: bool = False, outdir=OUT) -> str:
         ax[1].set_ylabel("crest u_x error (relative)")
         ax[1].set_title("Newmark work-precision (SYNTHETIC record)")
         fig.tight_layout()
-        fig.savefig(outdir / "newmark_checks.png", dpi=110)
+        fig.savefig(outdir / "time_integration_checks.png", dpi=110)
         plt.close(fig)
     except ImportError:
         pass
     text = "\n".join(lines) + "\n"
-    (outdir / "newmark_checks.md").write_text(text)
+    (outdir / "time_integration_checks.md").write_text(text)
     return text
 
 

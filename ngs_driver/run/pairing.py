@@ -13,17 +13,26 @@ from __future__ import annotations
 import numpy as np
 import scipy.sparse as sp
 
+from ..fe.pairing import lower_faces, upper_columns
+from .parts import Part
+
 __all__ = ["JointPairing", "OPEN_GAP"]
 
 OPEN_GAP = 1.0        # m: the normal gap given to a point that has no face below it
 
 
-class JointPairing:
-    """The current pairing of every joint that can slide on a deformable face."""
+class JointPairing(Part):
+    """The current pairing of every joint that can slide on a deformable face; a run part
+    (``run.parts``): after each step the joints that slid are paired anew and every function
+    in ``on_repair`` is called with the solver (the uplift's operator, the energy budget's
+    gap)."""
 
-    def __init__(self, model, slices, names, B, tolerance: float):
-        from ..fe.pairing import lower_faces, upper_columns
+    name = "pairing"
 
+    def __init__(self, model, slices, names, B, tolerance: float, solver=None):
+        self.solver = solver                  # whose operator a restore rebuilds
+        self.on_repair = []
+        self.offset = None                    # the solver's gap offset of the last pairing
         self.tol = float(tolerance)
         faces = lower_faces(model)
         self.joints = []                      # (name, slice, LowerFace, B rows of the upper)
@@ -79,22 +88,33 @@ class JointPairing:
             iN = 2 * np.flatnonzero(opened)
             offset[iN] += np.maximum(-solver.g[opened, 0], 0.0) + OPEN_GAP
         solver.set_operator(B, offset)
+        self.offset = offset
         self.repairs += 1
         return True
 
-    def state(self) -> dict:
-        return {"pairing_shift": self.shift.copy(),
-                "pairing_repairs": np.array([self.repairs], dtype=np.int64)}
+    def after_step(self, ctx):
+        if self.joints and self.update(ctx.solver):
+            for call in self.on_repair:
+                call(ctx.solver)
 
-    def restore(self, arrs, solver, offset):
-        """The pairing of a checkpoint (the shifts it was built at and the solver's offset)."""
-        if "pairing_shift" not in arrs or not self.joints:
+    def checkpoint(self) -> dict:
+        d = {"shift": self.shift.copy(), "repairs": int(self.repairs)}
+        if self.offset is not None:
+            d["offset"] = np.array(self.offset, copy=True)
+        return d
+
+    def restore(self, d):
+        """The pairing of a checkpoint: the shifts it was built at, and the solver's operator
+        rebuilt from them with the gap offset of the last pairing."""
+        if not self.joints:
             return
-        self.shift = np.array(arrs["pairing_shift"], dtype=np.float64)
+        self.shift = np.array(d["shift"], dtype=np.float64)
         self._limits = {}
-        self.repairs = int(np.asarray(arrs["pairing_repairs"])[0])
-        if offset is None:
+        self.repairs = int(d["repairs"])
+        self.offset = d.get("offset")
+        if self.offset is None:
             return
+        solver = self.solver
         B = solver.B.tolil(copy=True)
         for name, sl, face, Bup in self.joints:
             if not np.any(self.shift[sl]):
@@ -104,4 +124,4 @@ class JointPairing:
             B[2 * sl.start:2 * sl.stop] = (Bup + low).tolil()
         B = B.tocsr()
         B.eliminate_zeros()
-        solver.set_operator(B, offset)
+        solver.set_operator(B, self.offset)

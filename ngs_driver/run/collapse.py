@@ -1,49 +1,34 @@
-"""When a run stops: collapse, or the model's range left (docs/sliding.md §6).
+"""When a run stops: collapse, or the model's range left. The rule, its sources and its
+reasons: docs/run.md §4 (written there once).
 
-A run goes to the end of its record unless a joint collapses:
-
-* **unbounded sliding**: the joint is cracked over its whole length, it slides (its mean
-  slip changes faster than ``SLIDING_RATE``), and friction alone can no longer hold the static
-  loads of the cracked state: FS_static = f max(N_s, 0) / |T_s| < 1, with N_s, T_s the static
-  loads (gravity, hydrostatic, the current uplift, tailwater) resolved on the blocks above the
-  joint and f the joint's current friction (EM 1110-2-2100 eq. 3-1 without cohesion, the
-  post-earthquake check applied while it slides). Nothing then brings the block to rest:
-  without the earthquake it accelerates down the slope of its static loads. (A joint with a
-  bonded ligament left is not collapsing yet: the ligament either holds or debonds, and then
-  the rule applies);
-* **sliding off**: the mean slip of a lift joint reaches the joint's length: the block above
-  has left the block below (run/sliding opens every point that has no face below it);
-* **toppling** (``solver.kinematics = "finite_rotation"`` only, run/rotation.py): the
-  exact moment of the static loads about the joint's pivot no longer restores the block above
-  it (its weight's resultant passed the end of the joint). With the small-rotation kinematics
-  a toppling block (rotations near atan(b/h), 0.49 rad for koyna_1967's top block) leaves the
-  range below first.
-
-Each collapse entry names its ``mode`` (``COLLAPSE_MODES``).
-
-Leaving the model's range is not a collapse: |rotation of the block above a joint|
-> ``time.max_rotation`` (at most ``MAX_ROTATION_SUPPORTED`` with the small-rotation kinematics,
-``MAX_ROTATION_FINITE`` with the finite-rotation ones)
-or |slip| > ``time.max_slip`` (the user's bound of small-displacement sliding) stops the run
-with the verdict **undetermined**, naming the range.
-
-``CollapseRule.check`` returns None or the stop entry: joint, time, step, reason, the measure
-that triggered it and ``verdict`` ("collapse" or "undetermined"; "range" for the latter).
+A collapse is unbounded sliding (a joint cracked over its whole length slides faster than
+``SLIDING_RATE`` and FS_static = f max(N_s, 0) / |T_s| < 1 on the blocks above it), sliding
+off (a lift joint's mean slip reaches its length) or, with ``solver.kinematics =
+"finite_rotation"``, toppling (run/rotation.py, a part of its own listed before this rule);
+each collapse entry names its ``mode`` (``COLLAPSE_MODES``). |rotation| >
+``time.max_rotation`` (at most ``MAX_ROTATION_SUPPORTED`` with the small-rotation kinematics,
+``MAX_ROTATION_FINITE`` with the finite-rotation ones) or |slip| > ``time.max_slip`` is the
+verdict undetermined. ``CollapseRule.check`` returns None or the stop entry: joint, time,
+step, reason, the measure that triggered it and ``verdict`` ("collapse" or "undetermined";
+"range" for the latter).
 """
 from __future__ import annotations
 
 import numpy as np
 
+from ..fe.pairing import upper_columns
 from ..scene import MAX_ROTATION_FINITE, MAX_ROTATION_SUPPORTED
+from .parts import Part
 
 __all__ = ["CollapseRule", "SLIDING_RATE", "MAX_ROTATION_SUPPORTED", "MAX_ROTATION_FINITE",
            "VERDICTS", "COLLAPSE_MODES"]
 
 SLIDING_RATE = 1e-3     # m/s: a joint whose mean slip changes faster than this is sliding
-# the largest time.max_rotation the small-rotation kinematics support (scene.py checks it):
-# a rigid rotation theta of the linearised kinematics stretches the block by theta^2 / 2,
-# 5e-3 at 0.1 rad (~150 MPa of spurious stress at E = 31 GPa, 50 x concrete's tensile
-# strength); docs/solver.md §11. MAX_ROTATION_FINITE: the finite-rotation kinematics' bound
+# the bounds of time.max_rotation (scene.py checks them, docs/solver.md §11): the
+# small-rotation kinematics' MAX_ROTATION_SUPPORTED (a rigid rotation theta of the linearised
+# kinematics stretches the block by theta^2 / 2, 5e-3 at 0.1 rad: ~150 MPa of spurious stress
+# at E = 31 GPa, 50 x concrete's tensile strength) and the finite-rotation kinematics'
+# MAX_ROTATION_FINITE
 # summary.json "verdict": the record's end reached, a physical collapse, or the model's range
 # left (kinematic limits): nothing can be said about the dam past it
 VERDICTS = ("no_collapse", "collapse", "undetermined")
@@ -53,12 +38,17 @@ VERDICTS = ("no_collapse", "collapse", "undetermined")
 COLLAPSE_MODES = ("toppling", "sliding off", "friction unable to hold the static loads")
 
 
-class CollapseRule:
+class CollapseRule(Part):
+    """The collapse rule as a run part (``run.parts``): after each step it sets the step's
+    ``stop`` when a joint collapsed or left the model's range (when no part set one before:
+    the finite rotations' toppling)."""
+
+    name = "collapse"
     kinematics = "small"          # solver.kinematics: names the range left by a rotation
+
     def __init__(self, model, joints, max_slip: float, max_rotation: float,
                  kinematics: str = "small"):
-        from ..fe.pairing import upper_columns
-
+        self.joints = joints
         self.kinematics = kinematics
         self.names = list(joints.names)
         self.max_slip, self.max_rotation = float(max_slip), float(max_rotation)
@@ -145,10 +135,14 @@ class CollapseRule:
                         "measure": "static_fs", "value": float(fs[i])}
         return None
 
-    def state(self) -> dict:
-        return {"collapse_prev_slip": np.zeros(0) if self._prev is None else self._prev}
+    def after_step(self, ctx):
+        if ctx.stop is None:
+            ctx.stop = self.check(ctx.k, ctx.t, ctx.dt, ctx.measures, ctx.static_loads,
+                                  self.joints, ctx.scan)
 
-    def restore(self, arrs):
-        p = arrs.get("collapse_prev_slip") if hasattr(arrs, "get") else None
-        if p is not None and np.size(p):
-            self._prev = np.array(p, dtype=np.float64)
+    def checkpoint(self) -> dict:
+        return {"prev_slip": np.zeros(0) if self._prev is None else self._prev.copy()}
+
+    def restore(self, d):
+        p = np.array(d["prev_slip"], dtype=np.float64)
+        self._prev = p if p.size else None
