@@ -113,6 +113,23 @@ class Model:
     def ndof(self) -> int:
         return self.fes.ndof
 
+    # --- the model's coordinates (fe/reduction.py: a reduced bulk overrides these) -------
+    def dof_map(self) -> np.ndarray:
+        """The index in the model's coordinates of each free DOF (-1: none)."""
+        return np.arange(self.free.size)
+
+    def field_rows(self, v):
+        """A free-DOF field (or DOF mask) in the model's coordinates."""
+        return v
+
+    def load_rows(self, f):
+        """A free-DOF load vector in the model's coordinates."""
+        return f
+
+    def expand(self, u):
+        """The free-DOF displacement of a state of the model's coordinates."""
+        return u
+
     # --- NGSolve views -----------------------------------------------------------------
     def to_gridfunction(self, u_free: np.ndarray, gf=None):
         """Full NGSolve GridFunction (zeros on fixed DOFs) from a free-DOF vector."""
@@ -439,4 +456,9 @@ def build_from_scene(scene, **overrides) -> Model:
     """``build_model`` with the keyword arguments of a ``scene.Scene`` (overridable)."""
     kw = model_kwargs(scene)
     kw.update(overrides)
-    return build_model(**kw)
+    model = build_model(**kw)
+    sv = getattr(scene, "solver", None)
+    if getattr(sv, "bulk", "full") == "reduced":        # fe/reduction.py
+        from .reduction import reduce_model
+        model = reduce_model(model, sv.bulk_modes, sv.bulk_cutoff_hz)
+    return model

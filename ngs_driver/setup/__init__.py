@@ -6,6 +6,7 @@ build: the ``--dry-run`` answer).
 """
 from __future__ import annotations
 
+from .bulk import validate_bulk
 from .laws import build_law, build_scaling, characteristic_times, law_parts, validate_laws
 from .records import DEFAULT_RECORDS, load_ground_motion
 from .sanity import check_scene
@@ -27,6 +28,7 @@ def validate(scene):
     profile, the joints and the levels. Returns the loaded ground motion."""
     validate_laws(scene)
     validate_safety(scene)        # uplift, foundation
+    validate_bulk(scene)          # solver.bulk: the reduced bulk's combinations, cut-off
     check_scene(scene)            # physical sanity: contact vs weight, joint spacing, unused keys
     try:
         gm = load_ground_motion(scene)
