@@ -18,7 +18,7 @@ pytest.importorskip("ngsolve")
 
 from ngs_driver.apps.dam import run  # noqa: E402
 from ngs_driver.fe.model import build_from_scene  # noqa: E402
-from ngs_driver.fe.reduction import ReducedModel, reduce_model  # noqa: E402
+from ngs_driver.fe.reduction import ReducedCoordinates, reduce_model  # noqa: E402
 from ngs_driver.post.files import read_csv  # noqa: E402
 from ngs_driver.run.analysis import prepare  # noqa: E402
 from ngs_driver.scene import load_scene  # noqa: E402
@@ -41,7 +41,7 @@ def test_every_mode_kept_equals_full(tmp_path, smoke_model):
     round-off only (dense Cholesky against sparse LDL^T)."""
     sc = load_scene(SMOKE)
     red = reduce_model(smoke_model, n_modes=10 ** 6)
-    assert isinstance(red, ReducedModel) and red.nfree == smoke_model.nfree
+    assert isinstance(red, ReducedCoordinates) and red.nfree == smoke_model.nfree
     sf = run(sc, tmp_path / "full", progress=False, model=smoke_model, plots=False)
     sr = run(sc, tmp_path / "red", progress=False, model=red, plots=False)
     hf = read_csv(tmp_path / "full" / "timeseries.csv")

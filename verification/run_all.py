@@ -17,7 +17,8 @@ ROOT = HERE.parent
 STUDIES = ["material_point", "damage_rate", "scaling_plots", "ground_motion_plot",
            "model_checks", "newmark_checks", "energy_balance", "dcb_study", "reservoir",
            "safety_column", "koyna_studies", "damage_rate_koyna", "pine_flat",
-           "pine_flat_linear", "sliding", "koyna_records", "slammer", "unzip", "fuzz_edges"]
+           "pine_flat_linear", "sliding", "koyna_records", "slammer", "unzip", "fuzz_edges",
+           "reduced_bulk"]
 
 
 def run_study(name: str, fast: bool, outdir):

@@ -37,9 +37,7 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spl
 from scipy.sparse.csgraph import connected_components
 
-from .model import Model
-
-__all__ = ["Reduction", "ReducedModel", "reduce_model", "boundary_dofs", "BULKS"]
+__all__ = ["Reduction", "ReducedCoordinates", "reduce_model", "boundary_dofs", "BULKS"]
 
 BULKS = ("full", "reduced")
 # interior parts up to this many DOFs get every mode from a dense eigensolver (eigsh needs
@@ -129,13 +127,14 @@ class Reduction:
                 "reduced_dofs": int(self.n), "full_dofs": int(self.nfull)}
 
 
-@dataclass
-class ReducedModel(Model):
-    """A ``fe.model.Model`` in the reduced coordinates q (module docstring): K, M, loads,
-    influence vectors, interface and joint operators, crest and dam masks, reservoir coupling
-    are the reduced ones; ``free`` and ``fes`` are the full model's (the fe functions that
-    assemble on them finish with ``load_rows`` / ``field_rows`` / ``dof_map``)."""
-    reduction: Reduction | None = None
+class ReducedCoordinates:
+    """What makes a ``fe.model.Model`` a reduced one (``reduce_model`` builds the dataclass
+    ``ReducedModel`` from it and the model's own class): K, M, loads, influence vectors,
+    interface and joint operators, crest and dam masks, reservoir coupling are in the reduced
+    coordinates q (module docstring); ``free`` and ``fes`` are the full model's (the fe
+    functions that assemble on them finish with ``load_rows`` / ``field_rows`` /
+    ``dof_map``)."""
+    reduction: Reduction
 
     @property
     def nfree(self) -> int:
@@ -150,8 +149,8 @@ class ReducedModel(Model):
     def load_rows(self, f):
         return self.reduction.project(f)
 
-    def expand(self, q):
-        return self.reduction.expand(q)
+    def expand(self, u):
+        return self.reduction.expand(u)
 
     def to_gridfunction(self, u_free, gf=None):
         return super().to_gridfunction(self.reduction.expand(u_free), gf)
@@ -160,6 +159,20 @@ class ReducedModel(Model):
         d = super().summary()
         d["bulk"] = self.reduction.summary()
         return d
+
+
+_CLASSES: dict = {}
+
+
+def _reduced_class(base):
+    """The dataclass ReducedModel(ReducedCoordinates, base) with the field ``reduction``."""
+    cls = _CLASSES.get(base)
+    if cls is None:
+        cls = dataclasses.make_dataclass(
+            "ReducedModel", [("reduction", Any, dataclasses.field(default=None))],
+            bases=(ReducedCoordinates, base))
+        _CLASSES[base] = cls
+    return cls
 
 
 def boundary_dofs(model) -> np.ndarray:
@@ -229,7 +242,7 @@ def _modes(Kii, Mii, n_modes, cutoff_hz):
     return V, f[keep]
 
 
-def reduce_model(model: Model, n_modes: int = 40, cutoff_hz: float = 0.0) -> ReducedModel:
+def reduce_model(model, n_modes: int = 40, cutoff_hz: float = 0.0):
     """The model on its Craig-Bampton basis (module docstring): the lowest ``n_modes``
     fixed-interface modes, or (``cutoff_hz`` > 0) every mode up to that frequency."""
     if model.rock_sides == "absorbing":
@@ -292,15 +305,9 @@ def reduce_model(model: Model, n_modes: int = 40, cutoff_hz: float = 0.0) -> Red
             ac = dataclasses.replace(ac, Q=Qr)
         res = dataclasses.replace(res, acoustic=ac, added_mass=None if res.added_mass is None
                                   else red.both(res.added_mass))
-    return ReducedModel(
-        mesh=model.mesh, info=model.info, fes=model.fes, foundation=model.foundation,
-        order=model.order, free=model.free, K=sp.csr_matrix(Kr), M=Mr_s,
-        f_gravity=red.project(model.f_gravity), f_water=red.project(model.f_water),
-        r_x=rx, r_y=ry, interface=iface,
-        crest_dofs=(int(dmap[model.crest_dofs[0]]), int(dmap[model.crest_dofs[1]])),
-        dam_dofs=red.rows(model.dam_dofs), materials=model.materials, gravity=model.gravity,
-        reservoir_level=model.reservoir_level, water_density=model.water_density,
-        lumped_mass=model.lumped_mass, rock_sides=model.rock_sides,
-        include_rock_weight=model.include_rock_weight, reservoir=res,
-        crest_point=model.crest_point, regions=model.regions, joints=joints,
-        section=model.section, reduction=red)
+    kw = {f.name: getattr(model, f.name) for f in dataclasses.fields(model)}
+    kw.update(K=sp.csr_matrix(Kr), M=Mr_s, f_gravity=red.project(model.f_gravity),
+              f_water=red.project(model.f_water), r_x=rx, r_y=ry, interface=iface,
+              crest_dofs=(int(dmap[model.crest_dofs[0]]), int(dmap[model.crest_dofs[1]])),
+              dam_dofs=red.rows(model.dam_dofs), reservoir=res, joints=joints, reduction=red)
+    return _reduced_class(type(model))(**kw)
