@@ -33,6 +33,54 @@ def smoke_model():
     return build_from_scene(load_scene(SMOKE))
 
 
+@pytest.mark.parametrize("water", ["westergaard", "acoustic"])
+def test_every_mode_kept_equals_full_with_water(tmp_path, water):
+    """The same with the reservoir: Westergaard's added mass (a boundary-DOF mass) and the
+    compressible acoustic water coupled through the wet face's DOFs (its own factor, unreduced).
+    Tolerance as above (measured below 1e-12 of the peak)."""
+    sc = load_scene(SMOKE, [f"reservoir.model={water}", "reservoir.level=92"])
+    full = build_from_scene(sc)
+    red = reduce_model(full, n_modes=10 ** 6)
+    run(sc, tmp_path / "full", progress=False, model=full, plots=False)
+    s = run(sc, tmp_path / "red", progress=False, model=red, plots=False)
+    assert s["reservoir"]["kind"] == water
+    hf = read_csv(tmp_path / "full" / "timeseries.csv")
+    hr = read_csv(tmp_path / "red" / "timeseries.csv")
+    a, b = np.asarray(hf["crest_ux"], float), np.asarray(hr["crest_ux"], float)
+    assert np.abs(a).max() > 0
+    assert np.abs(b - a).max() <= 1e-7 * np.abs(a).max()
+
+
+def test_rigid_block_motion_in_the_basis(smoke_model):
+    """The deformation damping keeps the blocks' rigid sliding and rocking undamped only if
+    they lie in the basis: Phi R_r equals the full model's rigid modes R to round-off (1e-9 of
+    their largest entry, the rotation's lever arm ~100 m), with 3 modes kept."""
+    from ngs_driver.fe.blocks import block_rigid_modes
+    red = reduce_model(smoke_model, n_modes=3)
+    R, _ = block_rigid_modes(smoke_model)
+    Rr, _ = block_rigid_modes(red)
+    assert Rr.shape == (red.nfree, R.shape[1])
+    assert np.abs(red.expand(Rr) - R).max() <= 1e-9 * np.abs(R).max()
+
+
+def test_resume_equals_uninterrupted(tmp_path):
+    """A reduced run interrupted and resumed (the basis built anew from the scene) gives the
+    uninterrupted run's results: the basis is deterministic (eigsh's start vector and the modes'
+    signs fixed). Tolerance 1e-12 relative, as tests/test_koyna_run.py's resume test."""
+    from ngs_driver.apps.dam import RunInterrupted
+    sc = load_scene(SMOKE, ["solver.bulk=reduced", "solver.bulk_modes=20"])
+    a, b = tmp_path / "a", tmp_path / "b"
+    run(sc, a, progress=False, plots=False)
+    with pytest.raises(RunInterrupted):
+        run(sc, b, progress=False, plots=False, max_steps=27)
+    s = run(sc, b, resume=True, progress=False, plots=False)
+    assert s["resumed_from_step"] == 20
+    za, zb = np.load(a / "final_state.npz"), np.load(b / "final_state.npz")
+    for k in za.files:
+        np.testing.assert_allclose(zb[k], za[k], rtol=1e-12, atol=1e-12 * np.abs(za[k]).max()
+                                   + 1e-300, err_msg=k)
+
+
 def test_every_mode_kept_equals_full(tmp_path, smoke_model):
     """koyna_smoke (coarse Koyna on rock, 0.1 s of the strong phase, the default damping with
     its low-rank deformation part): with every fixed-interface mode kept Phi is square and

@@ -219,7 +219,8 @@ def _modes(Kii, Mii, n_modes, cutoff_hz):
         top = idx.size - 1                             # eigsh needs k < n
         kk = min(top, 32 if cutoff_hz > 0 else n_modes)
         while True:
-            lam, X = spl.eigsh(Kc, k=kk, M=Mc, sigma=0.0, which="LM", OPinv=op)
+            lam, X = spl.eigsh(Kc, k=kk, M=Mc, sigma=0.0, which="LM", OPinv=op,
+                               v0=np.ones(idx.size))   # deterministic (a resumed run)
             o = np.argsort(lam)
             lam, X = lam[o], X[:, o]
             if (cutoff_hz <= 0 or kk >= top
@@ -237,8 +238,10 @@ def _modes(Kii, Mii, n_modes, cutoff_hz):
     f = np.sqrt(np.maximum(lam, 0.0)) / (2 * np.pi)
     keep = f <= cutoff_hz if cutoff_hz > 0 else np.arange(lam.size) < n_modes
     V = V[:, keep]
-    # M_ii-normalised (eigsh's are, to round-off): normalise again
+    # M_ii-normalised (eigsh's are, to round-off): normalise again, and the sign fixed (the
+    # largest entry positive) so that a rebuilt basis gives the same coordinates (--resume)
     V = V / np.sqrt(np.einsum("ij,ij->j", V, Mii @ V))
+    V = V * np.sign(V[np.argmax(np.abs(V), axis=0), np.arange(V.shape[1])])
     return V, f[keep]
 
 
