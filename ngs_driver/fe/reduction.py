@@ -195,6 +195,14 @@ def boundary_dofs(model) -> np.ndarray:
     return np.unique(np.concatenate(sets)).astype(np.int64)
 
 
+def _spd_lu(A):
+    """SuperLU of a symmetric positive definite matrix: symmetric mode, MMD on A^T + A, no
+    pivoting (a sparser factor than the default COLAMD: its solves are what the reduction
+    costs)."""
+    return spl.splu(sp.csc_matrix(A), permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0,
+                    options=dict(SymmetricMode=True))
+
+
 def _modes(Kii, Mii, n_modes, cutoff_hz):
     """Fixed-interface modes of (K_ii, M_ii), each connected part of the interior (a dam
     block, the rock) on its own (a cut-off through a degenerate pair then never mixes two
@@ -214,7 +222,7 @@ def _modes(Kii, Mii, n_modes, cutoff_hz):
             vecs.append(Vc)
             lams.append(lam)
             continue
-        luc = spl.splu(Kc)
+        luc = _spd_lu(Kc)
         op = spl.LinearOperator(Kc.shape, matvec=luc.solve, dtype=np.float64)
         top = idx.size - 1                             # eigsh needs k < n
         kk = min(top, 32 if cutoff_hz > 0 else n_modes)
@@ -266,20 +274,35 @@ def reduce_model(model, n_modes: int = 40, cutoff_hz: float = 0.0):
     Kib = K[i][:, b].tocsr()
     Mii = M[i][:, i].tocsr()
     Mib = M[i][:, b].tocsr()
-    lu = spl.splu(Kii)
+    lu = _spd_lu(Kii)
     V, f = _modes(Kii, Mii, int(n_modes), float(cutoff_hz))
     if V.shape[1] == 0:
         raise ValueError(f"solver.bulk_cutoff_hz = {cutoff_hz!r}: keeps no mode (the lowest "
                          "fixed-interface mode is above it); allowed: a higher cut-off")
-    Psi = -lu.solve(Kib.toarray())                    # (n_i, n_b), dropped on return
-    Kbb = K[b][:, b].toarray()
-    Kr_bb = Kbb + np.asarray(Kib.T @ Psi)
-    MPsi = Mii @ Psi
-    Mr_bb = (M[b][:, b].toarray() + np.asarray(Mib.T @ Psi) + np.asarray((Mib.T @ Psi).T)
-             + Psi.T @ MPsi)
-    Mr_mb = V.T @ (Mib.toarray() + MPsi)
-    del Psi, MPsi
-    nb, nm = b.size, V.shape[1]
+    # the constraint modes part by part of the interior (a dam block, the rock): each part's
+    # Psi_c = -K_cc^-1 K_cb is zero outside the part and on the boundary columns the part does
+    # not touch (Psi^T M Psi is ~4x cheaper this way on Koyna than on the whole interior)
+    nb = b.size
+    Kr_bb = K[b][:, b].toarray()
+    Mr_bb = M[b][:, b].toarray()
+    Mr_mb = np.zeros((V.shape[1], nb))
+    _, lab = connected_components(Kii, directed=False)
+    for c in np.unique(lab):
+        idx = np.flatnonzero(lab == c)
+        Kcb, Mcb = Kib[idx], Mib[idx]
+        cols = np.union1d(np.unique(Kcb.indices), np.unique(Mcb.indices))
+        if cols.size == 0:
+            continue
+        Kcb, Mcb = Kcb[:, cols], Mcb[:, cols].toarray()
+        Psi = -_spd_lu(Kii[idx][:, idx]).solve(Kcb.toarray())      # (n_c, |cols|)
+        MPsi = Mii[idx][:, idx] @ Psi
+        MbP = Mcb.T @ Psi
+        ix = np.ix_(cols, cols)
+        Kr_bb[ix] += np.asarray(Kcb.T @ Psi)
+        Mr_bb[ix] += MbP + MbP.T + Psi.T @ MPsi
+        Mr_mb[:, cols] += V[idx].T @ (Mcb + MPsi)
+        del Psi, MPsi
+    nm = V.shape[1]
     lam = np.einsum("ij,ij->j", V, Kii @ V)
     Kr = np.zeros((nb + nm, nb + nm))
     Kr[:nb, :nb] = 0.5 * (Kr_bb + Kr_bb.T)
