@@ -259,9 +259,6 @@ def reduce_model(model, n_modes: int = 40, cutoff_hz: float = 0.0):
     if model.rock_sides == "absorbing":
         raise ValueError("solver.bulk = 'reduced' with geometry.rock_sides = 'absorbing': not "
                          "supported; allowed: rock_sides 'fixed' | 'roller' | 'free'")
-    if model.foundation == "massless":
-        raise ValueError("solver.bulk = 'reduced' with geometry.foundation = 'massless': not "
-                         "supported; allowed: foundation 'rock' | 'massed' | 'rigid'")
     if n_modes < 1 and cutoff_hz <= 0:
         raise ValueError(f"solver.bulk_modes = {n_modes!r}: keeps no mode; allowed: >= 1")
     b = boundary_dofs(model)
@@ -314,8 +311,14 @@ def reduce_model(model, n_modes: int = 40, cutoff_hz: float = 0.0):
     Mr[nb:, nb:] = np.eye(nm)
     red = Reduction(n, b, i, Kib, lu, V, f, float(cutoff_hz), int(n_modes))
     Mr_s = sp.csr_matrix(Mr)
-    # influence vectors: the M-orthogonal projections (M_r r_r = Phi^T M r, the seismic load)
-    rx, ry = (np.linalg.solve(Mr, red.project(M @ r)) for r in (model.r_x, model.r_y))
+    # influence vectors: the M-orthogonal projections (M_r r_r = Phi^T M r, the seismic load);
+    # on massless DOFs (a massless rock: its rows of M_r vanish, and those of Phi^T M r) the
+    # boundary rows, which the masks of the collapse rule and the resultants read
+    massless = ~np.any(Mr != 0.0, axis=1)
+    heavy = np.flatnonzero(~massless)
+    rx, ry = (red.rows(r).astype(np.float64) for r in (model.r_x, model.r_y))
+    for rr, r in ((rx, model.r_x), (ry, model.r_y)):
+        rr[heavy] = np.linalg.solve(Mr[np.ix_(heavy, heavy)], red.project(M @ r)[heavy])
     iface = dataclasses.replace(model.interface, B=red.columns(model.interface.B))
     joints = {k: dataclasses.replace(j, B=red.columns(j.B)) for k, j in model.joints.items()}
     dmap = red.dof_map()

@@ -34,10 +34,6 @@ def validate_bulk(scene) -> None:
                          "supported (the rock's interior has no support: no constraint modes); "
                          "allowed: rock_sides 'fixed' | 'roller' | 'free', or solver.bulk = "
                          "'full'")
-    if g.foundation == "massless":
-        raise ValueError("geometry.foundation = 'massless' with solver.bulk = 'reduced': not "
-                         "supported (the rock has no modes); allowed: foundation 'rock' | "
-                         "'massed' | 'rigid', or solver.bulk = 'full'")
     if scene.screening.enabled:
         raise ValueError("screening.enabled = true with solver.bulk = 'reduced': not supported "
                          "(the element stresses are not recovered every step); allowed: "
