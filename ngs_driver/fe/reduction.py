@@ -227,8 +227,10 @@ def _modes(Kii, Mii, n_modes, cutoff_hz):
         top = idx.size - 1                             # eigsh needs k < n
         kk = min(top, 32 if cutoff_hz > 0 else n_modes)
         while True:
-            lam, X = spl.eigsh(Kc, k=kk, M=Mc, sigma=0.0, which="LM", OPinv=op,
-                               v0=np.ones(idx.size))   # deterministic (a resumed run)
+            # a fixed start vector: the same basis when a run is resumed; pseudo-random, not
+            # ones (a symmetric part's modes may be orthogonal to a symmetric start)
+            v0 = np.random.default_rng(idx.size).standard_normal(idx.size)
+            lam, X = spl.eigsh(Kc, k=kk, M=Mc, sigma=0.0, which="LM", OPinv=op, v0=v0)
             o = np.argsort(lam)
             lam, X = lam[o], X[:, o]
             if (cutoff_hz <= 0 or kk >= top
