@@ -26,8 +26,19 @@ def validate_bulk(scene) -> None:
     """Raises ValueError naming the key, the value and what is allowed when the reduced bulk
     is asked for with a combination it does not support or a cut-off the mesh cannot carry."""
     sv = scene.solver
-    if sv.bulk != "reduced":
+    default_modes = type(sv)().bulk_modes
+    if sv.bulk != "reduced":                 # a key that would be ignored (setup/sanity.py)
+        for key, val, unset in (("bulk_modes", sv.bulk_modes, default_modes),
+                                ("bulk_cutoff_hz", sv.bulk_cutoff_hz, 0.0)):
+            if val != unset:
+                raise ValueError(f"solver.{key} = {val!r} with solver.bulk = {sv.bulk!r}: read "
+                                 f"only by the reduced bulk (it would be ignored); allowed: "
+                                 f"solver.bulk = 'reduced', or no solver.{key}")
         return
+    if sv.bulk_cutoff_hz > 0.0 and sv.bulk_modes != default_modes:
+        raise ValueError(f"solver.bulk_modes = {sv.bulk_modes!r} with solver.bulk_cutoff_hz = "
+                         f"{sv.bulk_cutoff_hz!r}: the cut-off decides which modes are kept (the "
+                         "count would be ignored); allowed: one of the two")
     g = scene.geometry
     if g.rock_sides == "absorbing":
         raise ValueError("geometry.rock_sides = 'absorbing' with solver.bulk = 'reduced': not "
