@@ -272,6 +272,17 @@ class Solver:
                                   doc="finite sliding: a joint is paired anew with the face "
                                       "below when a point has slid this fraction of the "
                                       "lower face's element since its last pairing")
+    bulk: str = _f("full", choices=("full", "reduced"),
+                   doc="full: the dam and rock on every DOF; reduced: on the Craig-Bampton "
+                       "basis of the joints' and the wet face's DOFs plus the fixed-"
+                       "interface modes up to the cut-off (fe/reduction.py, "
+                       "docs/reduced_bulk.md)")
+    bulk_modes: int = _f(40, lo=1, hi=2000,
+                         doc="reduced bulk: the number of fixed-interface modes kept (the "
+                             "lowest; bulk_cutoff_hz > 0 decides instead)")
+    bulk_cutoff_hz: float = _f(0.0, lo=0.0, hi=1.0e4,
+                               doc="reduced bulk: keep every fixed-interface mode up to this "
+                                   "frequency [Hz]; 0: bulk_modes decides")
 
 
 @dataclass(frozen=True)

@@ -18,7 +18,7 @@ STUDIES = ["material_point", "damage_rate", "scaling_plots", "ground_motion_plot
            "model_checks", "time_integration_checks", "energy_balance", "dcb_study", "reservoir",
            "safety_column", "koyna_studies", "damage_rate_koyna", "pine_flat",
            "pine_flat_linear", "sliding", "koyna_records", "slammer", "rocking",
-           "debonding_step_refinement", "fuzz_edges"]
+           "debonding_step_refinement", "fuzz_edges", "reduced_bulk"]
 
 
 # studies renamed for what they check: the old name still works with --only for one round

@@ -34,7 +34,7 @@ def block_rigid_modes(model) -> tuple[np.ndarray, np.ndarray]:
             gf = ngs.GridFunction(model.fes)
             comp = gf if len(model.regions) == 1 else gf.components[k]
             comp.Set(cf)
-            cols.append(np.array(gf.vec.FV().NumPy(), copy=True)[model.free])
+            cols.append(model.field_rows(np.array(gf.vec.FV().NumPy(), copy=True)[model.free]))
     return np.column_stack(cols), np.array(cents, dtype=np.float64)
 
 

@@ -29,4 +29,4 @@ def tailwater_load(model, level: float, rho_w: float, gravity: float):
     if "rock" in model.regions and "rock_top_down" in set(model.mesh.GetBoundaries()):
         lf += -rho_w * gravity * level * test[-1][1] * ngs.ds("rock_top_down")
     lf.Assemble()
-    return vec(lf)[model.free]
+    return model.load_rows(vec(lf)[model.free])

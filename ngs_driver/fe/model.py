@@ -33,6 +33,7 @@ from .acoustic import add_water
 from .coupling import JointOperator, build_joint_operator, stack_joint_operators
 from .ngs_helpers import find_vertex, to_scipy, vec, vertex_xy_dofs
 from .reservoir import build_reservoir
+from .reduction import reduce_model
 
 G_STANDARD = 9.81
 
@@ -116,6 +117,23 @@ class Model:
     @property
     def ndof(self) -> int:
         return self.fes.ndof
+
+    # --- the model's coordinates (fe/reduction.py: a reduced bulk overrides these) -------
+    def dof_map(self) -> np.ndarray:
+        """The index in the model's coordinates of each free DOF (-1: none)."""
+        return np.arange(self.free.size)
+
+    def field_rows(self, v):
+        """A free-DOF field (or DOF mask) in the model's coordinates."""
+        return v
+
+    def load_rows(self, f):
+        """A free-DOF load vector in the model's coordinates."""
+        return f
+
+    def expand(self, u):
+        """The free-DOF displacement of a state of the model's coordinates."""
+        return u
 
     # --- NGSolve views -----------------------------------------------------------------
     def to_gridfunction(self, u_free: np.ndarray, gf=None):
@@ -432,7 +450,11 @@ def build_from_inputs(inputs, **overrides) -> Model:
     """``build_model`` of a scene's ``setup.ModelInputs`` (keyword arguments overridable)."""
     kw = model_kwargs(inputs)
     kw.update(overrides)
-    return build_model(**kw)
+    model = build_model(**kw)
+    bulk, modes, cutoff_hz = inputs.bulk
+    if bulk == "reduced":                    # the Craig-Bampton basis (fe/reduction.py)
+        model = reduce_model(model, modes, cutoff_hz)
+    return model
 
 
 def build_from_scene(scene, **overrides) -> Model:

@@ -94,7 +94,7 @@ def upper_columns(model, region: str) -> np.ndarray:
     k = list(model.regions).index(region)
     full = np.zeros(model.fes.ndof, bool)
     full[off[k]:off[k + 1]] = True
-    return full[model.free]
+    return model.field_rows(full[model.free])
 
 
 def lower_faces(model) -> dict:
@@ -107,7 +107,7 @@ def lower_faces(model) -> dict:
 
     comps, off = _field_offsets(model)
     inv = -np.ones(model.fes.ndof, dtype=np.int64)
-    inv[model.free] = np.arange(model.free.size)
+    inv[model.free] = model.dof_map()
     regions = list(model.regions)
     blocks = [r for r in regions if r != "rock"]
     bnds = set(model.mesh.GetBoundaries())

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 from .inputs import (JointInput, ModelInputs, RunInputs, joint_inputs, k0_from_scene,
                      model_inputs, resolve, window_note)
+from .bulk import validate_bulk
 from .laws import build_law, build_scaling, characteristic_times, law_parts, validate_laws
 from .records import DEFAULT_RECORDS, load_ground_motion
 from .sanity import check_scene
@@ -30,6 +31,7 @@ def validate(scene):
     profile, the joints and the levels. Returns the loaded ground motion."""
     validate_laws(scene)
     validate_safety(scene)        # uplift, foundation
+    validate_bulk(scene)          # solver.bulk: the reduced bulk's combinations, cut-off
     check_scene(scene)            # physical sanity: contact vs weight, joint spacing, unused keys
     try:
         gm = load_ground_motion(scene)

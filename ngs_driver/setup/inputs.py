@@ -43,6 +43,7 @@ class ModelInputs:
     joints: tuple                         # (name, elevation, h_end, h_joint) of lift joints
     materials: dict                       # region -> (E, nu, rho, plane)
     options: dict                         # the other ``fe.model.build_model`` arguments
+    bulk: tuple = ("full", 0, 0.0)        # solver.bulk, bulk_modes, bulk_cutoff_hz (fe/reduction)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -140,7 +141,9 @@ def model_inputs(scene) -> ModelInputs:
                 getattr(scene.materials, r).rho, plane) for r in ("dam", "rock")}
     joints = tuple((j.name, j.elevation, j.h_end or m.h_heel, j.h_joint or m.h_interface)
                    for j in scene.joints)
-    return ModelInputs(section=scene.section, joints=joints, materials=mats, options=dict(
+    sv = getattr(scene, "solver", None)          # a scene-like object may carry no [solver]
+    bulk = ("full", 0, 0.0) if sv is None else (sv.bulk, sv.bulk_modes, sv.bulk_cutoff_hz)
+    return ModelInputs(section=scene.section, joints=joints, materials=mats, bulk=bulk, options=dict(
         foundation=g.foundation, order=m.order, gauss_points=m.gauss_points,
         gravity=L.gravity, reservoir_level=L.reservoir_level,
         water_density=L.water_density, lumped_mass=m.lumped_mass,
