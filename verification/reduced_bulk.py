@@ -87,6 +87,10 @@ def main(fast: bool = False, outdir="results/verification/reduced_bulk") -> dict
         cases["koyna_f0.8_1.0x"] = (("koyna", ["interface.friction=0.8"]), MODES_FULL_INTENSITY)
         for sc_name in ("koyna_engineering", "koyna_1967", "pine_flat"):
             cases[sc_name] = ((sc_name, []), MODES_FULL_INTENSITY)
+        # the reduced bulk does not carry the finite-rotation kinematics yet (setup/bulk.py):
+        # koyna_1967 in both bulks with the small ones (its rotations stay below 2.2e-3 rad)
+        cases["koyna_1967"] = (("koyna_1967", ["solver.kinematics=small",
+                                               "time.max_rotation=0.05"]), MODES_FULL_INTENSITY)
     cases["sliding_block"] = (("sliding_block", []), modes)
     rows = []
     for name, ((scene_name, sets), counts) in cases.items():
