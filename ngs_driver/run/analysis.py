@@ -484,7 +484,8 @@ class Analysis:
         """What a step changes, to repeat it (the energy guard): the solver's committed state
         with its coupled water's (``JointSolver.checkpoint``), the uplift in force and the
         energy budget's accumulators."""
-        return (self.solver.checkpoint(), self.uplift.field.p, self.energy.state())
+        # the solver's arrays by reference (``checkpoint(copy=False)``): restored at once
+        return (self.solver.checkpoint(copy=False), self.uplift.field.p, self.energy.state())
 
     def _restore(self, snap):
         sv, p, budget = snap

@@ -51,7 +51,8 @@ class FluidStepper:
     def __init__(self, acoustic, ground, g=None):
         self.ac = acoustic
         self.solver = None                            # the solver that binds this field
-        self.ground = ground
+        self._ground = ground
+        self._ag = {}          # time -> ground(time): a step asks for the same times 5 times
         # ground forcing of the fluid rows per unit a_g: (Q^T r + b) in the relative
         # formulation, b alone when u is total (absorbing rock boundaries)
         self.g = (acoustic.g_x, acoustic.g_y) if g is None else g
@@ -65,7 +66,7 @@ class FluidStepper:
         # the per-step products in compiled form (``_canonical_csr``): G, C_f, H, Q and Q^T
         # restricted to the face rows (Q^T u reads u at ``rows`` only)
         self._G, self._Cf, self._H = (_canonical_csr(X) for X in (W.G, W.Cf, W.H))
-        self._Q = _canonical_csr(acoustic.Q)
+        self._Qf = _canonical_csr(self.Qf)
         self._QfT = _canonical_csr(self.Qf.T)
         self._sd = None        # (h, time, p, pd, pdd, a, value) of the last ``_scheme_drift``
         self._cache = {}
@@ -89,6 +90,18 @@ class FluidStepper:
     def bind(self, solver):
         """Called once by the solver's constructor (solve/coupled.py)."""
         self.solver = solver
+
+    def ground(self, t):
+        """(a_gx, a_gy) at time t, remembered for the last few times (the step's start and end
+        are asked for by ``rhs``, ``_scheme_drift`` and ``_book``; each ask interpolates the
+        record twice)."""
+        ag = self._ag.get(t)
+        if ag is None:
+            ag = self._ground(t)
+            if len(self._ag) >= 8:
+                self._ag.pop(next(iter(self._ag)))
+            self._ag[t] = ag
+        return ag
 
     # -- per step size ------------------------------------------------------------------------
     def _entry(self, h):
@@ -137,7 +150,7 @@ class FluidStepper:
         self._c0 = ac.W.G @ self.pd + ac.W.Cf @ self.p + ac.rho * (ac.Q.T @ s.v)
 
     def rhs(self, h):
-        s, ac, W = self.solver, self.ac, self.ac.W
+        s, ac = self.solver, self.ac
         if self.pdd is None:
             self._start()
         if self._R is None:
@@ -155,22 +168,27 @@ class FluidStepper:
                   + ac.rho * mv(self._QfT, ubar) - ac.rho * (self.g[0] * agx + self.g[1] * agy))
             y = fac.solve(bp)
             self._bp = (float(h), y)
-            return mv(self._Q, y)
+            out = np.zeros(s.ndof)         # Q y: zero off the face rows, exactly
+            out[r] = mv(self._Qf, y)
+            return out
         # HHT / generalized alpha (solve/integrator.py): the fluid rows weighted as the
         # structure's, (1 - am) [G p'' + rho Q^T u'']_{n+1} + am [...]_n + (1 - af) [C_f p' +
         # H p]_{n+1} + af [...]_n = -rho g [(1 - af) a_g(t_{n+1}) + af a_g(t_n)]
         am, af = 1.0 - cm, 1.0 - cf
         agx0, agy0 = self.ground(s.time)
-        ubar = cm * (c0 * s.u + c2 * s.v + c3 * s.a) - am * s.a
-        bp = (W.G @ (cm * (c0 * self.p + c2 * self.pd + c3 * self.pdd) - am * self.pdd)
-              + W.Cf @ (cf * (c1 * self.p + c4 * self.pd + c5 * self.pdd) - af * self.pd)
-              - af * (W.H @ self.p)
-              + ac.rho * (ac.Q.T @ ubar)
+        r = self.rows                      # Q^T reads the face rows only
+        ubar = cm * (c0 * s.u[r] + c2 * s.v[r] + c3 * s.a[r]) - am * s.a[r]
+        bp = (mv(self._G, cm * (c0 * self.p + c2 * self.pd + c3 * self.pdd) - am * self.pdd)
+              + mv(self._Cf, cf * (c1 * self.p + c4 * self.pd + c5 * self.pdd) - af * self.pd)
+              - af * mv(self._H, self.p)
+              + ac.rho * mv(self._QfT, ubar)
               - ac.rho * (self.g[0] * (cf * agx + af * agx0) + self.g[1] * (cf * agy + af * agy0)))
         y = fac.solve(bp)
         self._bp = (float(h), y)
-        # the structure sees (1 - af) Q p_{n+1} + af Q p_n
-        return cf * (ac.Q @ y) + af * (ac.Q @ self.p)
+        # the structure sees (1 - af) Q p_{n+1} + af Q p_n (zero off the face rows, exactly)
+        out = np.zeros(s.ndof)
+        out[r] = cf * mv(self._Qf, y) + af * mv(self._Qf, self.p)
+        return out
 
     def commit(self, h):
         s = self.solver
