@@ -27,7 +27,7 @@ import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spl
 
-from .kernels import mv
+from .kernels import fluid_bp, fluid_commit, fluid_drift, fluid_face, mv
 from .sparse import SparseFactor
 
 
@@ -68,6 +68,10 @@ class FluidStepper:
         self._G, self._Cf, self._H = (_canonical_csr(X) for X in (W.G, W.Cf, W.H))
         self._Qf = _canonical_csr(self.Qf)
         self._QfT = _canonical_csr(self.Qf.T)
+        # their (indptr, indices, data) for the compiled step (solve/kernels.py ``fluid_*``)
+        self._Gt, self._Cft, self._Ht, self._QfTt, self._Qft = (
+            (A.indptr, A.indices, A.data) for A in (self._G, self._Cf, self._H, self._QfT,
+                                                    self._Qf))
         self._sd = None        # (h, time, p, pd, pdd, a, value) of the last ``_scheme_drift``
         self._cache = {}
         self._bp = None
@@ -160,34 +164,31 @@ class FluidStepper:
         agx, agy = self.ground(s.time + h)
         cf, cm = self._weights()
         fac = self._entry(h)[0]
-        if cf == 1.0 and cm == 1.0:        # Newmark: the fluid rows at t_{n+1}
-            r = self.rows                  # Q^T reads the face rows only
-            ubar = c0 * s.u[r] + c2 * s.v[r] + c3 * s.a[r]
-            bp = (mv(self._G, c0 * self.p + c2 * self.pd + c3 * self.pdd)
-                  + mv(self._Cf, c1 * self.p + c4 * self.pd + c5 * self.pdd)
-                  + ac.rho * mv(self._QfT, ubar) - ac.rho * (self.g[0] * agx + self.g[1] * agy))
-            y = fac.solve(bp)
-            self._bp = (float(h), y)
-            out = np.zeros(s.ndof)         # Q y: zero off the face rows, exactly
-            out[r] = mv(self._Qf, y)
-            return out
-        # HHT / generalized alpha (solve/integrator.py): the fluid rows weighted as the
-        # structure's, (1 - am) [G p'' + rho Q^T u'']_{n+1} + am [...]_n + (1 - af) [C_f p' +
-        # H p]_{n+1} + af [...]_n = -rho g [(1 - af) a_g(t_{n+1}) + af a_g(t_n)]
-        am, af = 1.0 - cm, 1.0 - cf
-        agx0, agy0 = self.ground(s.time)
         r = self.rows                      # Q^T reads the face rows only
-        ubar = cm * (c0 * s.u[r] + c2 * s.v[r] + c3 * s.a[r]) - am * s.a[r]
-        bp = (mv(self._G, cm * (c0 * self.p + c2 * self.pd + c3 * self.pdd) - am * self.pdd)
-              + mv(self._Cf, cf * (c1 * self.p + c4 * self.pd + c5 * self.pdd) - af * self.pd)
-              - af * mv(self._H, self.p)
-              + ac.rho * mv(self._QfT, ubar)
-              - ac.rho * (self.g[0] * (cf * agx + af * agx0) + self.g[1] * (cf * agy + af * agy0)))
+        alpha = not (cf == 1.0 and cm == 1.0)
+        am, af = 1.0 - cm, 1.0 - cf
+        if alpha:
+            # HHT / generalized alpha (solve/integrator.py): the fluid rows weighted as the
+            # structure's, (1 - am) [G p'' + rho Q^T u'']_{n+1} + am [...]_n + (1 - af) [C_f
+            # p' + H p]_{n+1} + af [...]_n = -rho g [(1 - af) a_g(t_{n+1}) + af a_g(t_n)]
+            agx0, agy0 = self.ground(s.time)
+            X, Y = cf * agx + af * agx0, cf * agy + af * agy0
+        else:                              # Newmark: the fluid rows at t_{n+1}
+            X, Y = agx, agy
+        # b_p = G (c0 p + c2 p' + c3 p'') + C_f (c1 p + c4 p' + c5 p'') + rho Q^T (c0 u + c2 u'
+        # + c3 u'') - rho g a_g (Newmark; the weighted form for alpha) in one compiled call,
+        # bitwise the numpy expressions (solve/kernels.py ``fluid_bp``)
+        wA, wB, bp = np.empty(self.p.size), np.empty(self.p.size), np.empty(self.p.size)
+        fluid_bp(self._Gt, self._Cft, self._Ht, self._QfTt, self.p, self.pd, self.pdd,
+                 s.u[r], s.v[r], s.a[r], self.g[0], self.g[1], np.array([c0, c2, c3]),
+                 np.array([c1, c4, c5]), np.array([c0, c2, c3]), cm, am, cf, af, ac.rho, X, Y,
+                 alpha, wA, wB, np.empty(r.size), bp)
         y = fac.solve(bp)
         self._bp = (float(h), y)
-        # the structure sees (1 - af) Q p_{n+1} + af Q p_n (zero off the face rows, exactly)
+        # the structure sees Q p_{n+1} (alpha: (1 - af) Q p_{n+1} + af Q p_n), zero off the
+        # face rows exactly
         out = np.zeros(s.ndof)
-        out[r] = cf * mv(self._Qf, y) + af * mv(self._Qf, self.p)
+        fluid_face(self._Qft, y, self.p, cf, af, alpha, r, out)
         return out
 
     def commit(self, h):
@@ -198,11 +199,15 @@ class FluidStepper:
         X = self._entry(h)[1]
         cm = self._weights()[1]
         cc = c0 if cm == 1.0 else cm * c0
-        p_new = y - cc * self.ac.rho * (X @ s.u[self.rows])
-        self._book(h, self.p, p_new)
-        dp = p_new - self.p
-        pdd = c0 * dp - c2 * self.pd - c3 * self.pdd
-        self.pd = self.pd + h * ((1 - s.gamma) * self.pdd + s.gamma * pdd)
+        xu = X @ s.u[self.rows]
+        # p, p', p'', pi and the step's mean pressure in one compiled pass (bitwise numpy's
+        # p_new = y - cc rho X u_f, the Newmark relations, pm = (p + p_new)/2, dpi = h pm)
+        n = self.p.size
+        p_new, pm, dpi, pd, pdd, pi = (np.empty(n) for _ in range(6))
+        fluid_commit(y, xu, cc * self.ac.rho, self.p, self.pd, self.pdd, self.pi, c0, c2, c3,
+                     h, 1 - s.gamma, s.gamma, p_new, pm, dpi, pd, pdd, pi)
+        self._book(h, pm, dpi, pi)
+        self.pd = pd
         self.pdd = pdd
         self.p = p_new
         # the integrator's work in the water (``_book``): R moves as the scheme's algebra says
@@ -227,10 +232,12 @@ class FluidStepper:
             return sd[6]         # (the arrays are replaced at a commit, never changed in place)
         dm, df, db = it.gamma - 1.0 + it.alpha_m, it.alpha_f - 0.5, it.beta - 0.5 * it.gamma
         agx, agy = self.ground(s.time)
-        e2 = mv(self._G, self.pdd) + ac.rho * mv(self._QfT, s.a[self.rows])
-        phi = (mv(self._Cf, self.pd) + mv(self._H, self.p)
-               + ac.rho * (self.g[0] * agx + self.g[1] * agy))
-        out = h * (dm * e2 + df * phi) + (h * h * db) * mv(self._Cf, self.pdd)
+        # h (dm e2 + df phi) + h^2 db C_f p'', e2 = G p'' + rho Q^T a, phi = C_f p' + H p +
+        # rho g a_g: one compiled call, bitwise the numpy expressions
+        out = np.empty(self.p.size)
+        fluid_drift(self._Gt, self._Cft, self._Ht, self._QfTt, self.p, self.pd, self.pdd,
+                    s.a[self.rows], self.g[0], self.g[1], ac.rho, agx, agy, h, dm, df,
+                    h * h * db, out)
         self._sd = (h, s.time, self.p, self.pd, self.pdd, s.a, out)
         return out
 
@@ -244,8 +251,9 @@ class FluidStepper:
                 + ac.rho * (self.g[0] * self._V[0] + self.g[1] * self._V[1]) - self._c0)
 
     # -- energy -------------------------------------------------------------------------------
-    def _book(self, h, p0, p1):
-        """Accumulate the step's water energy terms (before p, p', p'' move on).
+    def _book(self, h, pm, dpi, pi):
+        """Accumulate the step's water energy terms (before p, p', p'' move on): pm = (p0 +
+        p1)/2 the step's mean pressure, dpi = h pm, pi = pi + dpi (``fluid_commit``).
 
         The fluid rows, summed over the steps with the trapezoid (exact for the Newmark
         relations), integrate once in time to  G p' + C_f p + H pi + rho Q^T u' + rho g V = c
@@ -269,9 +277,7 @@ class FluidStepper:
         (the water's share of the integrator's exchange; docs/solver.md §9.1)."""
         s = self.solver
         if self._c0 is None:                  # a resumed run without the start state
-            self._c0 = np.zeros_like(p0)
-        pm = 0.5 * (p0 + p1)
-        dpi = h * pm
+            self._c0 = np.zeros_like(pm)
         agx0, agy0 = self.ground(s.time - h)
         agx1, agy1 = self.ground(s.time)
         V0 = self._V.copy()
@@ -283,7 +289,7 @@ class FluidStepper:
         self._acc += (far, allc - far,
                       -float(dpi @ (self.g[0] * Vm[0] + self.g[1] * Vm[1]))
                       + float(dpi @ self._c0) / rho)
-        self.pi = self.pi + dpi
+        self.pi = pi
         self._dpi = dpi
 
     def energy_terms(self) -> dict:
