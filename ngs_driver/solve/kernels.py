@@ -1,6 +1,7 @@
 """Compiled kernels of the joint solver: the right-hand side's vectors and products, the
-Newmark update of v and a, the active-point mask, CSR products without scipy's dispatch, and the
-data of the condensed interface Newton system (docs/solver.md §2). Each kernel does numpy's
+Newmark update of v and a, the active-point mask, CSR products without scipy's dispatch, the
+data of the condensed interface Newton system (docs/solver.md §2) and the water's step
+(solve/fluid.py; docs/solver.md §6.1). Each kernel does numpy's
 operations in numpy's order, so its results are bitwise those of the numpy expressions it
 replaces (tests/test_solver.py, tests/test_run_loop.py)."""
 from __future__ import annotations
@@ -11,7 +12,8 @@ from numba import njit
 from .products import pair_products
 
 __all__ = ["rhs_fused", "rhs_vectors", "rhs_combine", "newmark_update", "phi_mask_kernel",
-           "csr_mv", "mv", "ptp_pairs", "jac_setup"]
+           "csr_mv", "mv", "ptp_pairs", "jac_setup", "rhs_alpha", "fluid_bp", "fluid_face",
+           "fluid_drift", "fluid_commit"]
 
 
 @njit(cache=True)
