@@ -35,6 +35,7 @@ bench: $(STAMP)
 	$(VPY) -m pytest -q tests/bench --benchmark-only --benchmark-json=.benchmarks.json
 	$(VPY) verification/write_benchmarks.py
 	$(VPY) verification/bench_speed_targets.py
+	$(VPY) verification/step_cost.py --duration 4 --parts
 
 # the long Koyna benchmark study (DOF/point scaling, full 10 s runs, OpenSeesPy): ~15 min
 bench-koyna: $(STAMP)

@@ -491,3 +491,28 @@ def test_checkpoint_restore_round_trip_bit_for_bit(model):
     b.step(crest_load(model, 6))
     assert np.array_equal(a.u, b.u) and np.array_equal(a.t, b.t)
     assert np.array_equal(a.state.damage, b.state.damage)
+
+
+def test_checkpoint_without_copies_still_restores_the_step(model):
+    """``checkpoint(copy=False)`` (the run's snapshot before a step, for the energy guard's
+    repeat) holds the committed arrays themselves; a step replaces them and writes nothing
+    into them, so restoring it after a step repeats that step bit for bit."""
+    law = weak_law()
+    a = JointSolver(model.K, model.M, None, model.B, model.w, law, dt=2e-3)
+    a.static(model.gravity)
+    for n in range(1, 6):
+        a.step(crest_load(model, n))
+    d = a.checkpoint(copy=False)
+    assert d["u"] is a.u and d["state_damage"] is a.state.damage
+    kept = {k: np.array(v, copy=True) for k, v in d.items() if isinstance(v, np.ndarray)}
+    a.forget_jacobian()
+    a.step(crest_load(model, 6))
+    u6, t6, D6 = a.u.copy(), a.t.copy(), a.state.damage.copy()
+    assert not np.array_equal(u6, kept["u"])
+    for k, v in kept.items():            # the step wrote into none of the committed arrays
+        assert np.array_equal(d[k], v), k
+    a.restore(d)
+    a.forget_jacobian()
+    a.step(crest_load(model, 6))
+    assert np.array_equal(a.u, u6) and np.array_equal(a.t, t6)
+    assert np.array_equal(a.state.damage, D6)

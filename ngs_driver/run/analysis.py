@@ -450,8 +450,9 @@ class Analysis:
         # what a step changes, to repeat it: the solver's committed state with its coupled
         # water's and the energy budget's accumulators (their checkpoints), and the uplift
         # pressure in force (its fixed-point counts keep the rejected attempts' solves)
+        # (the solver's arrays by reference: a commit replaces them, a restore copies)
         repeat = (self.solver_part, self.energy)
-        saved = [p.checkpoint() for p in repeat]
+        saved = [self.solver_part.checkpoint(copy=False), self.energy.checkpoint()]
         p_uplift = self.uplift.p
         split, cuts, failed = 0, 0, 0
         while True:

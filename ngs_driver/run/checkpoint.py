@@ -24,8 +24,8 @@ CHECKPOINT_FORMAT = 2
 
 # The calls into the solver's own save and restore (and its coupled water's) are here and
 # nowhere else in run/: the solve stage's names for them may change in one place.
-def _solver_checkpoint(solver) -> dict:
-    return solver.checkpoint(coupled=False)
+def _solver_checkpoint(solver, copy: bool = True) -> dict:
+    return solver.checkpoint(coupled=False, copy=copy)
 
 
 def _restore_solver(solver, d) -> None:
@@ -61,9 +61,12 @@ class SolverPart(Part):
     def __init__(self, solver):
         self.solver = solver
 
-    def checkpoint(self) -> dict:
+    def checkpoint(self, copy: bool = True) -> dict:
+        """copy=False: the solver's committed arrays by reference (a step's snapshot for the
+        energy guard, restored at once: a commit replaces them and ``restore`` copies); the
+        water's are copied either way."""
         s = self.solver
-        d = _solver_checkpoint(s)       # copies: u, v, a, f, time, the internals, state_*
+        d = _solver_checkpoint(s, copy)     # u, v, a, f, time, the internals, state_*
         water = _water(s)
         if water is not None:
             d.update({f"water.{k}": None if v is None else np.array(v, copy=True)

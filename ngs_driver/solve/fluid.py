@@ -27,7 +27,19 @@ import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spl
 
+from .kernels import fluid_bp, fluid_commit, fluid_drift, fluid_face, mv
 from .sparse import SparseFactor
+
+
+def _canonical_csr(A):
+    """A as a CSR matrix with sorted, summed indices: ``mv`` on it sums each row in the order
+    of scipy's ``A @ x`` (CSR rows in stored order; a CSC matrix's columns ascending), so the
+    products are bitwise scipy's without its per-call dispatch (~15 us a call; the water's
+    products are a few microseconds of work)."""
+    A = sp.csr_matrix(A, dtype=np.float64, copy=True)
+    A.sum_duplicates()
+    A.sort_indices()
+    return A
 
 
 class FluidStepper:
@@ -39,7 +51,8 @@ class FluidStepper:
     def __init__(self, acoustic, ground, g=None):
         self.ac = acoustic
         self.solver = None                            # the solver that binds this field
-        self.ground = ground
+        self._ground = ground
+        self._ag = {}          # time -> ground(time): a step asks for the same times 5 times
         # ground forcing of the fluid rows per unit a_g: (Q^T r + b) in the relative
         # formulation, b alone when u is total (absorbing rock boundaries)
         self.g = (acoustic.g_x, acoustic.g_y) if g is None else g
@@ -50,6 +63,16 @@ class FluidStepper:
         self.pdd = None                               # set from the structure at the start
         self.rows = np.unique(acoustic.Q.nonzero()[0])   # face DOFs of the structure
         self.Qf = acoustic.Q[self.rows].tocsr()           # (nf, np)
+        # the per-step products in compiled form (``_canonical_csr``): G, C_f, H, Q and Q^T
+        # restricted to the face rows (Q^T u reads u at ``rows`` only)
+        self._G, self._Cf, self._H = (_canonical_csr(X) for X in (W.G, W.Cf, W.H))
+        self._Qf = _canonical_csr(self.Qf)
+        self._QfT = _canonical_csr(self.Qf.T)
+        # their (indptr, indices, data) for the compiled step (solve/kernels.py ``fluid_*``)
+        self._Gt, self._Cft, self._Ht, self._QfTt, self._Qft = (
+            (A.indptr, A.indices, A.data) for A in (self._G, self._Cf, self._H, self._QfT,
+                                                    self._Qf))
+        self._sd = None        # (h, time, p, pd, pdd, a, value) of the last ``_scheme_drift``
         self._cache = {}
         self._bp = None
         # the water's energy (see energy_terms): pi = int p dt, V = int a_g dt (trapezoid per
@@ -66,10 +89,23 @@ class FluidStepper:
         self._alg = 0.0
         Cf_far = getattr(W, "Cf_far", None)
         self._Cfar = Cf_far if Cf_far is not None else sp.csr_matrix(W.Cf.shape)
+        self._Cfar = _canonical_csr(self._Cfar)
 
     def bind(self, solver):
         """Called once by the solver's constructor (solve/coupled.py)."""
         self.solver = solver
+
+    def ground(self, t):
+        """(a_gx, a_gy) at time t, remembered for the last few times (the step's start and end
+        are asked for by ``rhs``, ``_scheme_drift`` and ``_book``; each ask interpolates the
+        record twice)."""
+        ag = self._ag.get(t)
+        if ag is None:
+            ag = self._ground(t)
+            if len(self._ag) >= 8:
+                self._ag.pop(next(iter(self._ag)))
+            self._ag[t] = ag
+        return ag
 
     # -- per step size ------------------------------------------------------------------------
     def _entry(self, h):
@@ -118,7 +154,7 @@ class FluidStepper:
         self._c0 = ac.W.G @ self.pd + ac.W.Cf @ self.p + ac.rho * (ac.Q.T @ s.v)
 
     def rhs(self, h):
-        s, ac, W = self.solver, self.ac, self.ac.W
+        s, ac = self.solver, self.ac
         if self.pdd is None:
             self._start()
         if self._R is None:
@@ -128,29 +164,32 @@ class FluidStepper:
         agx, agy = self.ground(s.time + h)
         cf, cm = self._weights()
         fac = self._entry(h)[0]
-        if cf == 1.0 and cm == 1.0:        # Newmark: the fluid rows at t_{n+1}
-            ubar = c0 * s.u + c2 * s.v + c3 * s.a
-            bp = (W.G @ (c0 * self.p + c2 * self.pd + c3 * self.pdd)
-                  + W.Cf @ (c1 * self.p + c4 * self.pd + c5 * self.pdd)
-                  + ac.rho * (ac.Q.T @ ubar) - ac.rho * (self.g[0] * agx + self.g[1] * agy))
-            y = fac.solve(bp)
-            self._bp = (float(h), y)
-            return ac.Q @ y
-        # HHT / generalized alpha (solve/integrator.py): the fluid rows weighted as the
-        # structure's, (1 - am) [G p'' + rho Q^T u'']_{n+1} + am [...]_n + (1 - af) [C_f p' +
-        # H p]_{n+1} + af [...]_n = -rho g [(1 - af) a_g(t_{n+1}) + af a_g(t_n)]
+        r = self.rows                      # Q^T reads the face rows only
+        alpha = not (cf == 1.0 and cm == 1.0)
         am, af = 1.0 - cm, 1.0 - cf
-        agx0, agy0 = self.ground(s.time)
-        ubar = cm * (c0 * s.u + c2 * s.v + c3 * s.a) - am * s.a
-        bp = (W.G @ (cm * (c0 * self.p + c2 * self.pd + c3 * self.pdd) - am * self.pdd)
-              + W.Cf @ (cf * (c1 * self.p + c4 * self.pd + c5 * self.pdd) - af * self.pd)
-              - af * (W.H @ self.p)
-              + ac.rho * (ac.Q.T @ ubar)
-              - ac.rho * (self.g[0] * (cf * agx + af * agx0) + self.g[1] * (cf * agy + af * agy0)))
+        if alpha:
+            # HHT / generalized alpha (solve/integrator.py): the fluid rows weighted as the
+            # structure's, (1 - am) [G p'' + rho Q^T u'']_{n+1} + am [...]_n + (1 - af) [C_f
+            # p' + H p]_{n+1} + af [...]_n = -rho g [(1 - af) a_g(t_{n+1}) + af a_g(t_n)]
+            agx0, agy0 = self.ground(s.time)
+            X, Y = cf * agx + af * agx0, cf * agy + af * agy0
+        else:                              # Newmark: the fluid rows at t_{n+1}
+            X, Y = agx, agy
+        # b_p = G (c0 p + c2 p' + c3 p'') + C_f (c1 p + c4 p' + c5 p'') + rho Q^T (c0 u + c2 u'
+        # + c3 u'') - rho g a_g (Newmark; the weighted form for alpha) in one compiled call,
+        # bitwise the numpy expressions (solve/kernels.py ``fluid_bp``)
+        wA, wB, bp = np.empty(self.p.size), np.empty(self.p.size), np.empty(self.p.size)
+        fluid_bp(self._Gt, self._Cft, self._Ht, self._QfTt, self.p, self.pd, self.pdd,
+                 s.u[r], s.v[r], s.a[r], self.g[0], self.g[1], np.array([c0, c2, c3]),
+                 np.array([c1, c4, c5]), np.array([c0, c2, c3]), cm, am, cf, af, ac.rho, X, Y,
+                 alpha, wA, wB, np.empty(r.size), bp)
         y = fac.solve(bp)
         self._bp = (float(h), y)
-        # the structure sees (1 - af) Q p_{n+1} + af Q p_n
-        return cf * (ac.Q @ y) + af * (ac.Q @ self.p)
+        # the structure sees Q p_{n+1} (alpha: (1 - af) Q p_{n+1} + af Q p_n), zero off the
+        # face rows exactly
+        out = np.zeros(s.ndof)
+        fluid_face(self._Qft, y, self.p, cf, af, alpha, r, out)
+        return out
 
     def commit(self, h):
         s = self.solver
@@ -160,11 +199,15 @@ class FluidStepper:
         X = self._entry(h)[1]
         cm = self._weights()[1]
         cc = c0 if cm == 1.0 else cm * c0
-        p_new = y - cc * self.ac.rho * (X @ s.u[self.rows])
-        self._book(h, self.p, p_new)
-        dp = p_new - self.p
-        pdd = c0 * dp - c2 * self.pd - c3 * self.pdd
-        self.pd = self.pd + h * ((1 - s.gamma) * self.pdd + s.gamma * pdd)
+        xu = X @ s.u[self.rows]
+        # p, p', p'', pi and the step's mean pressure in one compiled pass (bitwise numpy's
+        # p_new = y - cc rho X u_f, the Newmark relations, pm = (p + p_new)/2, dpi = h pm)
+        n = self.p.size
+        p_new, pm, dpi, pd, pdd, pi = (np.empty(n) for _ in range(6))
+        fluid_commit(y, xu, cc * self.ac.rho, self.p, self.pd, self.pdd, self.pi, c0, c2, c3,
+                     h, 1 - s.gamma, s.gamma, p_new, pm, dpi, pd, pdd, pi)
+        self._book(h, pm, dpi, pi)
+        self.pd = pd
         self.pdd = pdd
         self.p = p_new
         # the integrator's work in the water (``_book``): R moves as the scheme's algebra says
@@ -182,13 +225,21 @@ class FluidStepper:
         at every step end, E'' + Phi = 0 there, and the term vanishes (beta = gamma / 2 for
         average acceleration). A change of h shifts R by the difference of this term at
         that state."""
-        it, s, ac, W = self.solver.integrator, self.solver, self.ac, self.ac.W
+        it, s, ac = self.solver.integrator, self.solver, self.ac
+        sd = self._sd            # the commit's value, asked again by the next step's ``rhs``
+        if (sd is not None and sd[0] == h and sd[1] == s.time and sd[2] is self.p
+                and sd[3] is self.pd and sd[4] is self.pdd and sd[5] is s.a):
+            return sd[6]         # (the arrays are replaced at a commit, never changed in place)
         dm, df, db = it.gamma - 1.0 + it.alpha_m, it.alpha_f - 0.5, it.beta - 0.5 * it.gamma
         agx, agy = self.ground(s.time)
-        e2 = W.G @ self.pdd + ac.rho * (ac.Q.T @ s.a)
-        phi = (W.Cf @ self.pd + W.H @ self.p
-               + ac.rho * (self.g[0] * agx + self.g[1] * agy))
-        return h * (dm * e2 + df * phi) + (h * h * db) * (W.Cf @ self.pdd)
+        # h (dm e2 + df phi) + h^2 db C_f p'', e2 = G p'' + rho Q^T a, phi = C_f p' + H p +
+        # rho g a_g: one compiled call, bitwise the numpy expressions
+        out = np.empty(self.p.size)
+        fluid_drift(self._Gt, self._Cft, self._Ht, self._QfTt, self.p, self.pd, self.pdd,
+                    s.a[self.rows], self.g[0], self.g[1], ac.rho, agx, agy, h, dm, df,
+                    h * h * db, out)
+        self._sd = (h, s.time, self.p, self.pd, self.pdd, s.a, out)
+        return out
 
     def _drift(self) -> np.ndarray:
         """R = G p' + C_f p + H pi + rho Q^T u' + rho g V - c at the committed state: zero
@@ -200,8 +251,9 @@ class FluidStepper:
                 + ac.rho * (self.g[0] * self._V[0] + self.g[1] * self._V[1]) - self._c0)
 
     # -- energy -------------------------------------------------------------------------------
-    def _book(self, h, p0, p1):
-        """Accumulate the step's water energy terms (before p, p', p'' move on).
+    def _book(self, h, pm, dpi, pi):
+        """Accumulate the step's water energy terms (before p, p', p'' move on): pm = (p0 +
+        p1)/2 the step's mean pressure, dpi = h pm, pi = pi + dpi (``fluid_commit``).
 
         The fluid rows, summed over the steps with the trapezoid (exact for the Newmark
         relations), integrate once in time to  G p' + C_f p + H pi + rho Q^T u' + rho g V = c
@@ -225,21 +277,19 @@ class FluidStepper:
         (the water's share of the integrator's exchange; docs/run.md §9.1)."""
         s = self.solver
         if self._c0 is None:                  # a resumed run without the start state
-            self._c0 = np.zeros_like(p0)
-        pm = 0.5 * (p0 + p1)
-        dpi = h * pm
+            self._c0 = np.zeros_like(pm)
         agx0, agy0 = self.ground(s.time - h)
         agx1, agy1 = self.ground(s.time)
         V0 = self._V.copy()
         self._V += 0.5 * h * np.array([agx0 + agx1, agy0 + agy1])
         Vm = 0.5 * (V0 + self._V)
         rho = self.ac.rho
-        far = h * float(pm @ (self._Cfar @ pm)) / rho
-        allc = h * float(pm @ (self.ac.W.Cf @ pm)) / rho
+        far = h * float(pm @ mv(self._Cfar, pm)) / rho
+        allc = h * float(pm @ mv(self._Cf, pm)) / rho
         self._acc += (far, allc - far,
                       -float(dpi @ (self.g[0] * Vm[0] + self.g[1] * Vm[1]))
                       + float(dpi @ self._c0) / rho)
-        self.pi = self.pi + dpi
+        self.pi = pi
         self._dpi = dpi
 
     def energy_terms(self) -> dict:
@@ -247,10 +297,10 @@ class FluidStepper:
         kinetic pi.H pi / 2 rho, potential (compression) p.G p / 2 rho, radiated at the far
         end, absorbed at the bottom (alpha < 1), and the work of the ground on the water
         (an input, like W_ext). See ``_book``."""
-        W, rho = self.ac.W, self.ac.rho
+        rho = self.ac.rho
         return {"W_water": float(self._acc[2]),
-                "E_water_kin": 0.5 * float(self.pi @ (W.H @ self.pi)) / rho,
-                "E_water_pot": 0.5 * float(self.p @ (W.G @ self.p)) / rho,
+                "E_water_kin": 0.5 * float(self.pi @ mv(self._H, self.pi)) / rho,
+                "E_water_pot": 0.5 * float(self.p @ mv(self._G, self.p)) / rho,
                 "E_water_radiated": float(self._acc[0]),
                 "E_water_absorbed": float(self._acc[1]),
                 "E_water_alg": float(self._alg)}

@@ -30,7 +30,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .kernels import newmark_update, rhs_combine, rhs_fused, rhs_vectors
+from .kernels import newmark_update, rhs_alpha, rhs_combine, rhs_fused, rhs_vectors
 from .products import FusedPair, pair_products, step_products5
 
 __all__ = ["Integrator", "INTEGRATORS", "TimeDiscretisation"]
@@ -198,8 +198,12 @@ class TimeDiscretisation:
                 Ku, _, Mx, Cy, Cv = self.products_alpha(cs, h)
             af = -al
             f_n = cs.f if cs.f is not None else f_next
-            r_n = Ku + internal_force(cs.t) + Cv
-            return Mx + c * Cy + (c * f_next + af * f_n) - af * r_n
+            # Mx + c Cy + (c f_next + af f_n) - af (Ku + B^T W t_n + Cv) in one compiled pass
+            out = np.empty(self.ndof)
+            rhs_alpha(Mx, Cy, Ku, internal_force(cs.t), Cv,
+                      np.ascontiguousarray(f_next, dtype=np.float64),
+                      np.ascontiguousarray(f_n, dtype=np.float64), c, af, out)
+            return out
         am = self.alpha_m
         if am == 0.0:
             rhs = self.M @ (c0 * u + c2 * v + c3 * a)

@@ -9,7 +9,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from .joint_laws import initial_stiffness, reference_gap
-from .kernels import phi_mask_kernel
+from .kernels import mv, phi_mask_kernel
 
 __all__ = ["JointOperator", "relative_dofs"]
 
@@ -141,7 +141,7 @@ class JointOperator:
 
     def internal_force(self, t):
         """B^T W t: the free-DOF force of the interface tractions t (npts, 2)."""
-        return self.BT @ (self.wd * t.ravel())
+        return mv(self.BT, self.wd * t.ravel())     # bitwise scipy's BT @ (.)
 
     def phi_mask(self, phi, g):
         """Points whose correction phi is not round-off of K0 g."""

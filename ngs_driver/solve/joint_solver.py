@@ -44,6 +44,10 @@ from .stepping import SolverError, StepController, StepReport
 __all__ = ["JointSolver", "StepReport", "SolverError", "Attempt", "STATIC_DURATION"]
 
 
+def _same(x):
+    return x
+
+
 def _committed_field(name, doc):
     """A committed field read and set through the solver (the getter in C: read every step)."""
     def set_(self, value):
@@ -462,25 +466,28 @@ class JointSolver:
         return self.joints.internal_force(t)
 
     # ------------------------------------------------------------------ checkpoint / restore
-    def checkpoint(self, coupled: bool = True) -> dict:
+    def checkpoint(self, coupled: bool = True, copy: bool = True) -> dict:
         """Copies of everything the solver has committed, as plain arrays and floats: u, v, a,
         f (absent before the first load), time, the interface state (``state_<name>``), the
         law's traction t and gap g, the correction phi, the active mask, the slip signs of the
         friction events (when set), the gap offset of a re-paired joint (when set; restored by
         the run's pairing through ``set_operator``, not by ``restore``) and the coupled field's
         state (``coupled_<name>``; coupled=False: without it, for a run whose reservoir part
-        saves the water itself). ``restore`` puts the solver back bit for bit."""
+        saves the water itself). ``restore`` puts the solver back bit for bit.
+        copy=False: the solver's own committed arrays, not copies (the run's snapshot before a
+        step, restored at once if the step is rejected: a commit replaces the committed arrays
+        and never writes into them, and ``restore`` copies)."""
         cs = self.committed
-        d = {"u": cs.u.copy(), "v": cs.v.copy(), "a": cs.a.copy(), "time": float(cs.time),
-             "t": cs.t.copy(), "g": cs.g.copy(), "phi": cs.phi.copy(),
-             "active": cs.active.copy()}
+        cp = np.copy if copy else _same
+        d = {"u": cp(cs.u), "v": cp(cs.v), "a": cp(cs.a), "time": float(cs.time),
+             "t": cp(cs.t), "g": cp(cs.g), "phi": cp(cs.phi), "active": cp(cs.active)}
         if cs.f is not None:
-            d["f"] = cs.f.copy()
+            d["f"] = cp(cs.f)
         if cs.slip_sign is not None:
-            d["slip_sign"] = cs.slip_sign.copy()
+            d["slip_sign"] = cp(cs.slip_sign)
         if self.joints.g_offset is not None:      # a joint paired anew (finite sliding)
-            d["g_offset"] = self.joints.g_offset.copy()
-        d.update({f"state_{k}": np.array(v, copy=True)
+            d["g_offset"] = cp(self.joints.g_offset)
+        d.update({f"state_{k}": np.array(v, copy=copy)
                   for k, v in cs.state.as_dict().items()})
         if coupled and self.coupled is not None:
             d.update({f"coupled_{k}": None if v is None else np.array(v, copy=True)

@@ -1,0 +1,250 @@
+"""What one time step of a run costs against its own linear algebra (issue FAST, target 1).
+
+For the Koyna 0.2x scene with a frictional interface (``koyna --set ground_motion.scale=0.2
+--set interface.friction=0.8 --set time.duration=D``), in one process, for the code of whatever
+checkout is first on the import path:
+
+* the run is prepared with the run's own set-up (``run.analysis.prepare``, no plots), its
+  static state solved, every step run by ``Analysis.step`` and timed (mean and median of the
+  loop's steps, the first WARM left out: numba compiles and the step's factorisation);
+* the solver's ``step`` is timed around each call (median);
+* after the loop, ONE forward + backward solve of the solver's own factor of the nominal step's
+  effective matrix (the sparse LDL^T of ``SparseFactor``; with the deformation damping the
+  sparse part A_s that the Woodbury correction wraps) is timed REPS times on a fixed
+  right-hand side (median);
+* ratio = median run step / median forward+backward (target <= 2.5).
+
+``--parts``: also the median of each part of a step (each public method timed around its
+calls: the solver's step, its right-hand side, the water's rhs and commit, the condensed
+Newton's attempt, the factor's halves, the commit, the energy budget with its products, the
+run's measures); what no part covers is the run's own Python (``rest``).
+``--profile FILE``: the time loop (not set-up or static) under cProfile, stats to FILE.
+``--elastic``: the same command on the interface's elastic branch (record x 0.001, no damage).
+Prints one JSON line (times in ms, the machine's load average at the start and the end).
+
+``--compare OLD --repeat N``: alternates N times the old checkout OLD and this one (each in a
+subprocess with its own PYTHONPATH): the measurement above, frictional and elastic, and the
+whole command ``python -m ngs_driver run koyna ... --quiet`` timed from start to exit; prints
+each run and the medians (BENCHMARKS.md "A compiled step").
+
+    PYTHONPATH=/path/to/checkout python verification/step_cost.py [--duration 4]
+    python verification/step_cost.py --compare /path/to/old/checkout --repeat 3
+"""
+from __future__ import annotations
+
+import argparse
+import cProfile
+import gc
+import json
+import os
+import pathlib
+import subprocess
+import sys
+import tempfile
+import time
+
+import numpy as np
+
+import ngs_driver
+from ngs_driver.post.outputs import RunOutputs
+from ngs_driver.run.analysis import prepare
+from ngs_driver.scene import load_scene
+
+WARM = 20            # first steps left out (numba compiles, the step's factorisation)
+REPS = 400           # forward + backward solves timed
+
+
+def sets(duration: float, elastic: bool) -> list:
+    if elastic:
+        return ["ground_motion.scale=0.001", "interface.friction=0.8", "interface.damage=false",
+                f"time.duration={duration}"]
+    return ["ground_motion.scale=0.2", "interface.friction=0.8", f"time.duration={duration}"]
+
+
+def fb_time(factor) -> float:
+    """Median [ms] of one forward + backward solve of the sparse factor behind ``factor``."""
+    F = getattr(factor, "F", factor)              # LowRankFactor wraps the sparse one
+    b = np.random.default_rng(0).standard_normal(F.shape[0])
+    F.backward(F.forward(b))                      # compiled already; warm the caches
+    ts = []
+    for _ in range(REPS):
+        t0 = time.perf_counter()
+        F.backward(F.forward(b))
+        ts.append(time.perf_counter() - t0)
+    return 1e3 * float(np.median(ts))
+
+
+def timer(parts: dict, obj, name: str, label: str):
+    """Time every call of ``obj.name`` into parts[label] (an instance's or a class's method)."""
+    fn = getattr(obj, name)
+    out = parts.setdefault(label, [])
+
+    def timed(*args, **kw):
+        t0 = time.perf_counter()
+        try:
+            return fn(*args, **kw)
+        finally:
+            out.append(1e3 * (time.perf_counter() - t0))
+    setattr(obj, name, timed)
+    return fn
+
+
+def wrap_parts(a, parts: dict) -> list:
+    """Timers on the parts of a step (``--parts``); returns what to put back."""
+    from ngs_driver.solve.damping import LowRankFactor
+    s = a.solver
+    undo = []
+    for obj, name, label in (
+            (s, "right_hand_side", "solver: right-hand side (with the water's)"),
+            (s.coupled, "rhs", "  water: rhs (its own solve)"),
+            (s.newton, "attempt", "solver: condensed Newton attempt"),
+            (LowRankFactor, "forward", "  factor: forward (+ low-rank)"),
+            (LowRankFactor, "backward", "  factor: backward"),
+            (LowRankFactor, "backward_at", "  factor: backward at the interface"),
+            (LowRankFactor, "forward_sparse", "  factor: forward from the interface"),
+            (s.control, "solve", "  Newton loop on the gaps"),
+            (s, "commit", "solver: commit (with the water's)"),
+            (s.coupled, "commit", "  water: commit"),
+            (s, "step_products", "run: step products (K u, M v; next rhs' M x, C y, C v)"),
+            (a.energy, "step", "run: energy budget"),
+            (a.joints, "scan", "run: joints scan"),
+            (a.joints, "measures", "run: joints measures"),
+            (a.history, "append", "run: history row"),
+            (a.safety, "step_measures", "run: safety measures"),
+            (a.stop_rule, "check", "run: stop rule"),
+            (a.guard, "check", "run: energy guard"),
+            (a.pairing, "update", "run: pairing (finite sliding)")):
+        if obj is None:
+            continue
+        undo.append((obj, name, timer(parts, obj, name, label), isinstance(obj, type)))
+    if a.reservoir is not None:
+        undo.append((a.reservoir, "sample",
+                     timer(parts, a.reservoir, "sample", "run: reservoir sample"), False))
+    return undo
+
+
+def measure(duration: float, elastic: bool = False, profile: str | None = None,
+            parts: bool = False) -> dict:
+    sc = load_scene("koyna", sets(duration, elastic))
+    out = pathlib.Path(tempfile.mkdtemp(prefix="step_cost_"))
+    t_all = time.perf_counter()
+    a = prepare(sc, out, outputs=RunOutputs(plots=False), progress=False,
+                log=lambda *x, **k: None)
+    a.static()
+    s = a.solver
+    solver_ms, run_ms = [], []
+    step = s.step
+
+    def timed(*args, **kw):
+        t0 = time.perf_counter()
+        try:
+            return step(*args, **kw)
+        finally:
+            solver_ms.append(1e3 * (time.perf_counter() - t0))
+    s.step = timed                  # the instance's step: the class's method, timed
+    pt = {}
+    undo = wrap_parts(a, pt) if parts else []
+    prof = cProfile.Profile() if profile else None
+    gc.freeze()
+    t_loop = time.perf_counter()
+    try:
+        if prof is not None:
+            prof.enable()
+        while True:
+            t0 = time.perf_counter()
+            more = a.step()
+            run_ms.append(1e3 * (time.perf_counter() - t0))
+            if not more:
+                break
+        if prof is not None:
+            prof.disable()
+        t_loop = time.perf_counter() - t_loop
+        fb = fb_time(s.newton.steps[float(s.dt)].factor)
+    finally:
+        for obj, name, fn, cls in undo:
+            if cls:
+                setattr(obj, name, fn)          # the class's method back
+            else:
+                delattr(obj, name)              # the instance's timer removed
+        a.close()
+        gc.unfreeze()
+    if prof is not None:
+        prof.dump_stats(profile)
+    its = sum(r.iterations for r in s.history[1:])
+    crest = float(np.abs(s.u).max())
+    a.release()
+    run = np.asarray(run_ms[WARM:])
+    return {"code": str(pathlib.Path(ngs_driver.__file__).parent.parent), "elastic": elastic,
+            "duration": duration, "steps": len(run_ms), "newton_iterations": int(its),
+            "loop_s": t_loop, "prepare_static_loop_s": time.perf_counter() - t_all,
+            "run_step_mean_ms": float(run.mean()), "run_step_median_ms": float(np.median(run)),
+            "solver_step_median_ms": float(np.median(solver_ms[WARM:])),
+            "fwd_bwd_ms": fb, "ratio_median": float(np.median(run)) / fb,
+            "ratio_mean": float(run.mean()) / fb, "crest_u_last": crest,
+            **({"parts_median_ms": {k: float(np.median(v[WARM:] if len(v) > 2 * WARM else v))
+                                    for k, v in pt.items()},
+                "parts_calls": {k: len(v) for k, v in pt.items()}} if parts else {})}
+
+
+HERE = pathlib.Path(__file__).resolve().parent.parent
+
+
+def _sub(code, argv) -> tuple[float, str]:
+    """(wall [s], stdout) of ``python argv`` with PYTHONPATH = code."""
+    env = dict(os.environ, PYTHONPATH=str(code))
+    t0 = time.perf_counter()
+    r = subprocess.run([sys.executable, *argv], env=env, capture_output=True, text=True,
+                       check=True)
+    return time.perf_counter() - t0, r.stdout
+
+
+def compare(old: str, repeat: int, duration: float) -> dict:
+    """Old and this checkout alternated ``repeat`` times (module docstring)."""
+    rows = {}
+    for i in range(repeat):
+        for tag, code in (("old", old), ("new", HERE)):
+            for elastic in (False, True):
+                key = f"{tag}{'_elastic' if elastic else ''}"
+                _, out = _sub(code, [__file__, "--duration", str(duration)]
+                              + (["--elastic"] if elastic else []))
+                m = json.loads(out.strip().splitlines()[-1])
+                with tempfile.TemporaryDirectory(prefix="step_cost_run_") as d:
+                    wall, _ = _sub(code, ["-m", "ngs_driver", "run", "koyna", "--quiet",
+                                          "--overwrite", "--out", d]
+                                   + [a for x in sets(duration, elastic) for a in ("--set", x)])
+                m["whole_run_s"] = wall
+                m["load_now"] = os.getloadavg()[0]
+                rows.setdefault(key, []).append(m)
+                print(json.dumps({"repeat": i, "which": key, **m}), flush=True)
+    keys = ("run_step_median_ms", "run_step_mean_ms", "solver_step_median_ms", "fwd_bwd_ms",
+            "ratio_median", "ratio_mean", "loop_s", "whole_run_s")
+    med = {k: {q: float(np.median([m[q] for m in v])) for q in keys} for k, v in rows.items()}
+    for tag in ("old", "new"):
+        med[tag]["whole_over_elastic"] = (med[tag]["whole_run_s"]
+                                          / med[f"{tag}_elastic"]["whole_run_s"])
+        med[tag]["loop_over_elastic"] = med[tag]["loop_s"] / med[f"{tag}_elastic"]["loop_s"]
+    print(json.dumps({"medians": med, "old": old, "new": str(HERE), "duration": duration,
+                      "repeat": repeat}))
+    return med
+
+
+def main(argv=None):
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("--duration", type=float, default=4.0)
+    p.add_argument("--elastic", action="store_true")
+    p.add_argument("--profile", default=None)
+    p.add_argument("--parts", action="store_true")
+    p.add_argument("--compare", default=None)
+    p.add_argument("--repeat", type=int, default=3)
+    args = p.parse_args(argv)
+    if args.compare:
+        return compare(args.compare, args.repeat, args.duration)
+    load0 = os.getloadavg()[0]
+    r = measure(args.duration, args.elastic, args.profile, args.parts)
+    r["load_start"], r["load_end"] = load0, os.getloadavg()[0]
+    print(json.dumps(r))
+    return r
+
+
+if __name__ == "__main__":
+    main()
