@@ -1,4 +1,5 @@
-"""What one time step of a run costs against its own linear algebra (issue FAST, target 1).
+"""What one time step of a run costs against its own linear algebra: the ratio of a step to
+one forward + backward solve of its factor.
 
 For the Koyna 0.2x scene with a frictional interface (``koyna --set ground_motion.scale=0.2
 --set interface.friction=0.8 --set time.duration=D``), in one process, for the code of whatever
