@@ -149,7 +149,8 @@ class JointSolver:
         self.controller = StepController(event_levels)
         self.statics = StaticSolve()
         # callables fn(solver, h, iterations) run after every commit (h None: a static one):
-        # studies observe the accepted sub-steps without touching the solver (verification/debonding_step_refinement.py)
+        # studies observe the accepted sub-steps without touching the solver
+        # (verification/debonding_step_refinement.py)
         self.commit_observers = []
         self.law = law
         self._Minv = None
