@@ -192,8 +192,6 @@ BAD = [
      r"solver.bulk_modes = 20 with solver.bulk_cutoff_hz = 50.0: the cut-off decides.*allowed"),
     (["solver.bulk=reduced", "screening.enabled=true"],
      r"screening.enabled = true with solver.bulk = 'reduced': not supported.*allowed"),
-    (["solver.bulk=reduced", "solver.kinematics=finite_rotation"],
-     r"solver.kinematics = 'finite_rotation' with solver.bulk = 'reduced': not supported.*allowed"),
     (["solver.bulk=reduced", "reservoir.compressible=false"],
      r"reservoir.compressible = false with solver.bulk = 'reduced'.*allowed"),
 ]

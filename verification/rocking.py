@@ -73,7 +73,8 @@ def _rotation_field(model, pivot):
     from ngs_driver.fe.blocks import linear_fields
     F = linear_fields(model, [r for r in model.regions if r != "rock"])
     cx, cy = pivot
-    return -(F["Yx"] - cy * F["Tx"]) + (F["Xy"] - cx * F["Ty"])
+    # a rigid field: in the model's coordinates (a reduced bulk's basis holds it exactly)
+    return model.field_rows(-(F["Yx"] - cy * F["Tx"]) + (F["Xy"] - cx * F["Ty"]))
 
 
 def release(sc, theta0=0.0, omega0=0.0, outdir=None):
