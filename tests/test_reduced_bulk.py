@@ -203,6 +203,15 @@ def test_bad_inputs(sets, pat):
         validate(load_scene("koyna", sets))
 
 
+def test_finite_rotation_accepted():
+    """The finite-rotation kinematics run on the reduced bulk (run/rotation.py sums the lever
+    arms on the full DOFs; tests/test_rocking.py checks them): koyna_1967, whose default they
+    are, validates with solver.bulk = "reduced"."""
+    sc = load_scene("koyna_1967", ["solver.bulk=reduced"])
+    assert sc.solver.kinematics == "finite_rotation"
+    validate(sc)
+
+
 def test_cutoff_keeps_the_modes_below_it(smoke_model):
     """solver.bulk_cutoff_hz: every fixed-interface mode up to the cut-off and none above it;
     the same modes as the count that reaches it (frequencies to 1e-8 relative: two eigsh runs
