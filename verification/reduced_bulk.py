@@ -7,8 +7,9 @@ fixed-interface modes kept, on
   fast form: koyna_smoke, 0.1 s);
 * Koyna, f = 0.8, the full record (the base cracks through at 1.2 s and slides ~0.18 m with
   re-pairings: finite sliding on the reduced bulk), with ``MODES_FULL_INTENSITY``;
-* the scenes koyna_engineering (massless rock, drains), koyna_1967 (a lift joint at the neck)
-  and pine_flat (Taft, 54 s), as shipped, with ``MODES_FULL_INTENSITY``;
+* the scenes koyna_engineering (massless rock, drains), koyna_1967 (a lift joint at the neck,
+  the finite-rotation kinematics) and pine_flat (Taft, 54 s), as shipped, with
+  ``MODES_FULL_INTENSITY``;
 * the sliding block (scenes/sliding_block.toml: 40 x 10 m block, cracked base f = 0.5, 0.8 g
   half-sine pulse).
 
@@ -87,10 +88,6 @@ def main(fast: bool = False, outdir="results/verification/reduced_bulk") -> dict
         cases["koyna_f0.8_1.0x"] = (("koyna", ["interface.friction=0.8"]), MODES_FULL_INTENSITY)
         for sc_name in ("koyna_engineering", "koyna_1967", "pine_flat"):
             cases[sc_name] = ((sc_name, []), MODES_FULL_INTENSITY)
-        # the reduced bulk does not carry the finite-rotation kinematics yet (setup/bulk.py):
-        # koyna_1967 in both bulks with the small ones (its rotations stay below 2.2e-3 rad)
-        cases["koyna_1967"] = (("koyna_1967", ["solver.kinematics=small",
-                                               "time.max_rotation=0.05"]), MODES_FULL_INTENSITY)
     cases["sliding_block"] = (("sliding_block", []), modes)
     rows = []
     for name, ((scene_name, sets), counts) in cases.items():

@@ -23,6 +23,10 @@ impact belongs to the contact law, not to Housner's model.
   alpha), the second rocks and recovers (its largest rotation, its impact).
 * **Ground pulses** (half-sine, 1 s): the forced response (largest rotation, its time, the
   impact) at 0.4 g, and toppling at 1.1 times the exact equation's critical amplitude.
+* **The reduced bulk** (``solver.bulk = "reduced"``, 40 fixed-interface modes; fe/reduction.py):
+  the free-rocking and toppling cases of the finite-rotation kinematics again, against the full
+  bulk's (the rigid rotation lies in the basis; the lever-arm sums are the full bulk's,
+  run/rotation.py).
 """
 from __future__ import annotations
 
@@ -51,6 +55,7 @@ PULSE_T = 1.0                      # s: the half-sine pulses' duration
 FULL = dict(free=(0.5, 0.9), dts=(0.004, 0.002, 0.001), dt=0.002, topple=(1.05, 0.95),
             pulses=True)
 FAST = dict(free=(0.9,), dts=(), dt=0.004, topple=(1.05, 0.95), pulses=False)
+REDUCED = ("solver.bulk=reduced",)                # the reduced bulk's cases (its 40 modes)
 
 
 def block_scene(kinematics="finite_rotation", dt=0.002, duration=3.0, record=None,
@@ -73,7 +78,8 @@ def _rotation_field(model, pivot):
     from ngs_driver.fe.blocks import linear_fields
     F = linear_fields(model, [r for r in model.regions if r != "rock"])
     cx, cy = pivot
-    return -(F["Yx"] - cy * F["Tx"]) + (F["Xy"] - cx * F["Ty"])
+    # a rigid field: in the model's coordinates (a reduced bulk's basis holds it exactly)
+    return model.field_rows(-(F["Yx"] - cy * F["Tx"]) + (F["Xy"] - cx * F["Ty"]))
 
 
 def release(sc, theta0=0.0, omega0=0.0, outdir=None):
@@ -130,15 +136,16 @@ def first_crossing(t, th, after=0.0):
     return None
 
 
-def free_cases(cfg, dt=None):
+def free_cases(cfg, dt=None, kinematics=("finite_rotation", "small"), extra=()):
     rows = []
     for frac in cfg["free"]:
         th0 = frac * ALPHA
         ref = free_rocking_quarter(B_HALF, H_HALF, th0, g=G, inset=INSET)
         ref0 = free_rocking_quarter(B_HALF, H_HALF, th0, g=G)
-        for kin in ("finite_rotation", "small"):
+        for kin in kinematics:
             t0 = time.perf_counter()
-            sc = block_scene(kin, dt=dt or cfg["dt"], duration=round(1.3 * ref, 2))
+            sc = block_scene(kin, dt=dt or cfg["dt"], duration=round(1.3 * ref, 2),
+                             extra=extra)
             t, th, stop = release(sc, theta0=th0)
             imp = first_crossing(t, th)
             rows.append({"theta0_over_alpha": frac, "kinematics": kin, "dt": sc.time.dt,
@@ -190,15 +197,15 @@ def topple_time_exact(omega0):
             (float(sol.t_events[1][0]) if sol.t_events[1].size else None))
 
 
-def toppling_cases(cfg):
+def toppling_cases(cfg, extra=()):
     wc, _ = critical_omega()
     rows = []
     for f in cfg["topple"]:
         t_top, th_max, t_imp = topple_time_exact(f * wc)
         dur = round(1.3 * (t_top if t_top is not None else t_imp), 2)
         t0 = time.perf_counter()
-        t, th, stop = release(block_scene("finite_rotation", dt=cfg["dt"], duration=dur),
-                              omega0=f * wc)
+        t, th, stop = release(block_scene("finite_rotation", dt=cfg["dt"], duration=dur,
+                                          extra=extra), omega0=f * wc)
         rows.append({"omega0_over_crit": f, "omega0": f * wc,
                      "verdict": None if stop is None else
                      ("collapse" if "mode" in stop else "undetermined"),
@@ -209,6 +216,38 @@ def toppling_cases(cfg):
                      "fe_theta_max": float(np.max(th)), "ref_theta_max": th_max,
                      "fe_impact": first_crossing(t, th, after=0.05), "ref_impact": t_imp,
                      "wall": time.perf_counter() - t0})
+    return rows
+
+
+def reduced_cases(cfg, free, topple):
+    """The finite-rotation free-rocking and toppling cases on the reduced bulk, each beside the
+    full bulk's row (``free``, ``topple``: the full bulk's rows): rows of (case, quantity,
+    full, reduced, difference)."""
+    rows = []
+    full = {r["theta0_over_alpha"]: r for r in free if r["kinematics"] == "finite_rotation"}
+    for r in free_cases(cfg, kinematics=("finite_rotation",), extra=REDUCED):
+        f = full[r["theta0_over_alpha"]]
+        rows.append({"case": f"free rocking, theta0 = {r['theta0_over_alpha']:g} alpha",
+                     "quantity": "time to impact [s]", "full": f["fe_impact"],
+                     "reduced": r["fe_impact"], "wall": r["wall"]})
+    full = {r["omega0_over_crit"]: r for r in topple}
+    for r in toppling_cases(cfg, extra=REDUCED):
+        f = full[r["omega0_over_crit"]]
+        case = f"omega0 = {r['omega0_over_crit']:g} omega_c"
+        if f["mode"] == "toppling" or r["mode"] == "toppling":
+            rows.append({"case": case, "quantity": "toppling time [s]",
+                         "full": f["fe_topple_time"], "reduced": r["fe_topple_time"],
+                         "mode_full": f["mode"], "mode_reduced": r["mode"], "wall": r["wall"]})
+        else:
+            rows.append({"case": case, "quantity": "largest rotation [rad]",
+                         "full": f["fe_theta_max"], "reduced": r["fe_theta_max"],
+                         "mode_full": f["mode"], "mode_reduced": r["mode"], "wall": r["wall"]})
+            rows.append({"case": case, "quantity": "time to impact [s]",
+                         "full": f["fe_impact"], "reduced": r["fe_impact"],
+                         "mode_full": f["mode"], "mode_reduced": r["mode"], "wall": r["wall"]})
+    for r in rows:
+        r["difference"] = (None if r["full"] is None or r["reduced"] is None
+                           else r["reduced"] / r["full"] - 1.0)
     return rows
 
 
@@ -289,6 +328,13 @@ def report(res) -> str:
                      f"{r['ref_theta_max']:.4g} | {r['fe_t_max']:.4g} | {r['ref_t_max']:.4g} | "
                      f"{_f(r['fe_impact'])} | {_f(r['ref_impact'])} | {r['mode'] or '—'} | "
                      f"{_f(r['fe_topple_time'])} | {_f(r['ref_topple_time'])} |")
+    if res.get("reduced"):
+        L += ["", "## The reduced bulk (solver.bulk = \"reduced\", 40 modes) against the full",
+              "", "| case | quantity | full bulk | reduced bulk | difference |",
+              "|---|---|---|---|---|"]
+        for r in res["reduced"]:
+            L.append(f"| {r['case']} | {r['quantity']} | {_f(r['full'], '{:.6g}')} | "
+                     f"{_f(r['reduced'], '{:.6g}')} | {_f(r['difference'], '{:+.3%}')} |")
     return "\n".join(L) + "\n"
 
 
@@ -298,6 +344,7 @@ def main(fast: bool = False, outdir=None) -> dict:
     out.mkdir(parents=True, exist_ok=True)
     res = {"fast": fast, "alpha": ALPHA, "inset": INSET, "free": free_cases(cfg),
            "dt": dt_study(cfg), "topple": toppling_cases(cfg), "pulses": pulse_cases(cfg)}
+    res["reduced"] = reduced_cases(cfg, res["free"], res["topple"])
     (out / "rocking.md").write_text(report(res))
     (out / "rocking.json").write_text(json.dumps(res, indent=1, default=float))
     return res

@@ -135,6 +135,12 @@ class Model:
         """The free-DOF displacement of a state of the model's coordinates."""
         return u
 
+    def full_bulk(self):
+        """The mass matrix, dead load and influence vectors on the free DOFs (attributes M,
+        f_gravity, r_x, r_y): the model itself (a reduced bulk: those of the full model it was
+        reduced from, fe/reduction.py ``FullBulk``)."""
+        return self
+
     # --- NGSolve views -----------------------------------------------------------------
     def to_gridfunction(self, u_free: np.ndarray, gf=None):
         """Full NGSolve GridFunction (zeros on fixed DOFs) from a free-DOF vector."""

@@ -24,6 +24,11 @@ static extension of its boundary) -- or a DOF mask becomes its boundary rows and
 coordinates (``field_rows``); the influence vectors r_x, r_y (the rock's is not in the span:
 its bottom is fixed) are the M-orthogonal projections, so that M_r r = Phi^T M r (the seismic
 load) exactly; a state q is recovered as u = Phi q (``expand``, one solve with K_ii).
+
+Sums of a load with a field that is *not* in the span (a block's lever arms (x - x_c, y - y_c),
+which the finite rotations' moments need: run/rotation.py) are not those of the reduced
+coordinates: the reduced model keeps the full mass matrix, gravity load and influence vectors
+(``FullBulk``, the model's ``full_bulk()``) for them.
 """
 from __future__ import annotations
 
@@ -37,12 +42,23 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spl
 from scipy.sparse.csgraph import connected_components
 
-__all__ = ["Reduction", "ReducedCoordinates", "reduce_model", "boundary_dofs", "BULKS"]
+__all__ = ["Reduction", "FullBulk", "ReducedCoordinates", "reduce_model", "boundary_dofs", "BULKS"]
 
 BULKS = ("full", "reduced")
 # interior parts up to this many DOFs get every mode from a dense eigensolver (eigsh needs
 # k < n): the reduced bulk with every mode kept is then the full bulk (tests)
 DENSE_EIG = 1500
+
+
+@dataclass
+class FullBulk:
+    """The full model's quantities on its free DOFs that a reduced model keeps (module
+    docstring): named as the model's own, so that ``model.full_bulk()`` reads alike for both
+    bulks."""
+    M: sp.csr_matrix            # (nfull, nfull) the mass matrix (with the added mass)
+    f_gravity: np.ndarray       # (nfull,) the dead load
+    r_x: np.ndarray             # (nfull,) the influence vectors
+    r_y: np.ndarray
 
 
 @dataclass
@@ -58,6 +74,7 @@ class Reduction:
     freqs_hz: np.ndarray        # (n_m,) their frequencies
     cutoff_hz: float            # the requested cut-off (0: the count decides)
     n_requested: int            # the requested count
+    full: Any = None            # FullBulk: the full model's M, f_gravity, r_x, r_y
 
     @property
     def nb(self) -> int:
@@ -151,6 +168,10 @@ class ReducedCoordinates:
 
     def expand(self, u):
         return self.reduction.expand(u)
+
+    def full_bulk(self):
+        """The full model's M, f_gravity, r_x, r_y on its free DOFs (``FullBulk``)."""
+        return self.reduction.full
 
     def to_gridfunction(self, u_free, gf=None):
         return super().to_gridfunction(self.reduction.expand(u_free), gf)
@@ -311,7 +332,10 @@ def reduce_model(model, n_modes: int = 40, cutoff_hz: float = 0.0):
     Mr[nb:, :nb] = Mr_mb
     Mr[:nb, nb:] = Mr_mb.T
     Mr[nb:, nb:] = np.eye(nm)
-    red = Reduction(n, b, i, Kib, lu, V, f, float(cutoff_hz), int(n_modes))
+    red = Reduction(n, b, i, Kib, lu, V, f, float(cutoff_hz), int(n_modes),
+                    full=FullBulk(M, np.asarray(model.f_gravity, dtype=np.float64),
+                                  np.asarray(model.r_x, dtype=np.float64),
+                                  np.asarray(model.r_y, dtype=np.float64)))
     Mr_s = sp.csr_matrix(Mr)
     # influence vectors: the M-orthogonal projections (M_r r_r = Phi^T M r, the seismic load);
     # on massless DOFs (a massless rock: its rows of M_r vanish, and those of Phi^T M r) the

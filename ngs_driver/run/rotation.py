@@ -39,6 +39,15 @@ it: the offset books no work), ``after_step`` sets the run's stop on toppling (w
 set one yet), and its checkpoint holds the solver's gap offset, which it changes every step:
 on resume it is put back after the pairing's (which restores the offset of its last pairing).
 
+**The reduced bulk** (``solver.bulk = "reduced"``, fe/reduction.py): the rigid fields phi_c
+and phi_m lie in the span of its basis (a block's interior is the static extension of its
+boundary), so they are its ``field_rows`` and every sum of a load with them is the full bulk's
+(Phi^T f . q = f . Phi q); the lever-arm field psi_c does not, so M_lin and Q (of gravity and of
+the unit ground loads M r) and the centre of mass are summed on the full free DOFs with the full
+model's M, f_gravity, r_x, r_y (``model.full_bulk()``), and the P-Delta shape is the reduced
+load Phi^T M phi_m / (phi_m^T M phi_m). The corrections are then the full bulk's for the same
+rotation: the gap's points, B and theta are the same (B touches boundary DOFs only).
+
 **Toppling** (``toppled``, the part's ``after_step``): the block above a joint topples when the
 exact moment of the static loads about its pivot turns it further (sign(theta) M_s(theta) > 0:
 its weight's resultant passed the end of the joint, theta past atan(b/h) for a rigid rectangle
@@ -73,8 +82,17 @@ class FiniteRotation(Part):
         self.xp = np.asarray(iface.x, dtype=np.float64)
         self.yp = np.asarray(iface.y, dtype=np.float64)
         w = np.asarray(iface.w, dtype=np.float64)
-        M = sp.csr_matrix(model.M)
-        fg = np.asarray(model.f_gravity, dtype=np.float64)
+        # the lever-arm sums on the full free DOFs (a reduced bulk's lever-arm fields psi are
+        # not in its basis' span: its full M, f_gravity, r_x, r_y, fe/reduction.py); the
+        # rigid fields phi and the P-Delta load then in the model's coordinates (module
+        # docstring, "The reduced bulk")
+        full = model.full_bulk()
+        M = sp.csr_matrix(full.M)
+        fg = np.asarray(full.f_gravity, dtype=np.float64)
+        if full is not model:
+            # the reduced bulk's Mrx, Mry are Phi^T M r (no absorbing rock, no incompressible
+            # water there: setup/bulk.py): the full bulk's are M r
+            Mrx, Mry = M @ full.r_x, M @ full.r_y
         blocks = [r for r in model.regions if r != "rock"]
         self.rot_w = []          # per joint: theta = rot_w . (B u)_N over its points
         self.pivots = []         # per joint: ((x, y) upstream end, (x, y) downstream end)
@@ -95,17 +113,17 @@ class FiniteRotation(Part):
                 # (M_lin, Q) of gravity and of the unit ground accelerations' loads -M r a
                 mom.append(np.array([[fg @ phi, fg @ psi], [-(Mrx @ phi), -(Mrx @ psi)],
                                      [-(Mry @ phi), -(Mry @ psi)]], dtype=np.float64))
-                phis.append(phi)
+                phis.append(model.field_rows(phi))
             MTx, MTy = M @ F["Tx"], M @ F["Ty"]
             m = float(F["Tx"] @ MTx)
             xm, ym = float(F["Xx"] @ MTx) / m, float(F["Yy"] @ MTy) / m
             phim = -(F["Yx"] - ym * F["Tx"]) + (F["Xy"] - xm * F["Ty"])
             Mphi = M @ phim
-            self.shapes.append(Mphi / float(phim @ Mphi))
+            self.shapes.append(model.load_rows(Mphi) / float(phim @ Mphi))
             self.pivots.append(piv)
             self.moments.append(mom)
             self.phis.append(phis)
-        self.fg = fg
+        self.fg = fg if full is model else np.asarray(model.f_gravity, dtype=np.float64)
         self.d_applied = np.zeros(2 * self.npts)   # the offset's share of this class
         self.theta = np.zeros(len(self.names))     # of the last before_step
         self.dM = np.zeros(len(self.names))

@@ -39,11 +39,6 @@ def validate_bulk(scene) -> None:
         raise ValueError(f"solver.bulk_modes = {sv.bulk_modes!r} with solver.bulk_cutoff_hz = "
                          f"{sv.bulk_cutoff_hz!r}: the cut-off decides which modes are kept (the "
                          "count would be ignored); allowed: one of the two")
-    if scene.solver.kinematics == "finite_rotation":
-        raise ValueError("solver.kinematics = 'finite_rotation' with solver.bulk = 'reduced': not "
-                         "supported yet (the blocks' lever-arm fields are not in the reduced "
-                         "coordinates, docs/reduced_bulk.md §4); allowed: solver.kinematics = "
-                         "'small' (with time.max_rotation <= 0.1), or solver.bulk = 'full'")
     g = scene.geometry
     if g.rock_sides == "absorbing":
         raise ValueError("geometry.rock_sides = 'absorbing' with solver.bulk = 'reduced': not "
