@@ -170,3 +170,15 @@ def test_architecture_solve_stage_lists_the_solve_folder():
     assert len(rows) >= 10, rows
     assert not missing, missing
     assert not unnamed, unnamed
+
+
+def test_verification_page_lists_every_study():
+    """Every study `make verify` runs (verification/run_all.py ``STUDIES``, read as text) has
+    its row in docs/verification.md's table. Self-check: at least ten studies are read."""
+    src = (ROOT / "verification" / "run_all.py").read_text(encoding="utf-8")
+    block = re.search(r"^STUDIES = \[(.*?)\]", src, re.S | re.M).group(1)
+    studies = re.findall(r'"(\w+)"', block)
+    page = (ROOT / "docs" / "verification.md").read_text(encoding="utf-8")
+    missing = [s for s in studies if f"| `verification/{s}.py` |" not in page]
+    assert len(studies) >= 10, studies
+    assert not missing, missing
