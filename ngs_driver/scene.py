@@ -35,9 +35,11 @@ MAX_ROTATION_FINITE = 1.0
 JOINT_NAME_CHARS = set("abcdefghijklmnopqrstuvwxyz0123456789_")
 
 
-def _f(default, lo=None, hi=None, lo_open=False, hi_open=False, choices=None, doc=""):
+def _f(default, lo=None, hi=None, lo_open=False, hi_open=False, choices=None, doc="",
+       range_note=""):
+    # range_note: appended to an out-of-range message when the range depends on another key
     md = {"lo": lo, "hi": hi, "lo_open": lo_open, "hi_open": hi_open, "choices": choices,
-          "doc": doc}
+          "doc": doc, "range_note": range_note}
     if isinstance(default, (list, tuple)):
         return field(default_factory=lambda d=tuple(default): d, metadata=md)
     return field(default=default, metadata=md)
@@ -145,6 +147,9 @@ class Time:
     # hi: MAX_ROTATION_FINITE; with solver.kinematics = "small" at most
     # MAX_ROTATION_SUPPORTED (the linearised rotation's stretch theta^2/2): _scene_checks
     max_rotation: float = _f(0.05, lo=0.0, hi=MAX_ROTATION_FINITE, lo_open=True,
+                             range_note=f"(at most {MAX_ROTATION_SUPPORTED:g} with "
+                                        "solver.kinematics = 'small', the default; "
+                                        f"{MAX_ROTATION_FINITE:g} with 'finite_rotation')",
                              doc="stop (verdict undetermined: the model's range) when the "
                                  "rotation of the block above a joint passes this [rad]; at "
                                  "most 0.1 with solver.kinematics = 'small' (the small-rotation "
@@ -452,14 +457,12 @@ def _check_scalar(path: str, value, typ, md) -> Any:
     if choices is not None and value not in choices:
         raise ValueError(f"{path} = {value!r}: not allowed, choose one of {list(choices)}")
     lo, hi = md.get("lo"), md.get("hi")
-    if lo is not None and (value < lo or (md.get("lo_open") and value == lo)):
+    if ((lo is not None and (value < lo or (md.get("lo_open") and value == lo)))
+            or (hi is not None and (value > hi or (md.get("hi_open") and value == hi)))):
+        note = md.get("range_note")
         raise ValueError(f"{path} = {value!r}: out of range, allowed "
                          f"{'(' if md.get('lo_open') else '['}{lo}, {hi}"
-                         f"{')' if md.get('hi_open') else ']'}")
-    if hi is not None and (value > hi or (md.get("hi_open") and value == hi)):
-        raise ValueError(f"{path} = {value!r}: out of range, allowed "
-                         f"{'(' if md.get('lo_open') else '['}{lo}, {hi}"
-                         f"{')' if md.get('hi_open') else ']'}")
+                         f"{')' if md.get('hi_open') else ']'}" + (f" {note}" if note else ""))
     return value
 
 

@@ -19,7 +19,6 @@ def _mats(rng):
         A.sort_indices()
         return A
     G, Cf, H = rand(N, N, 0.05), rand(N, N, 0.01), rand(N, N, 0.05)
-    Q = rand(NU, N, 0.0)
     rows = np.sort(rng.choice(NU, NF, replace=False))
     Qf = rand(NF, N, 0.2)
     Q = sp.lil_matrix((NU, N))

@@ -23,7 +23,12 @@ import pytest
 pytest.importorskip("ngsolve")
 
 from conftest import run_fast_study  # noqa: E402
+from ngs_driver.apps.dam import RunInterrupted, run  # noqa: E402
+from ngs_driver.fe.blocks import linear_fields  # noqa: E402
+from ngs_driver.post.files import read_csv  # noqa: E402
+from ngs_driver.run.analysis import prepare  # noqa: E402
 from verification.housner import free_rocking_quarter  # noqa: E402
+from verification.rocking import block_scene, rotation_field  # noqa: E402
 
 
 @pytest.fixture(scope="module")
@@ -83,15 +88,13 @@ def test_gap_and_load_of_a_finite_rigid_rotation(tmp_path):
     the mass sums), its moment is dM = (cos - 1) M_lin - sin Q about the pivot, and for the
     rectangle dM = W (b (1 - cos) + h sin) (the difference of Housner's W R sin(alpha - theta)
     and the linear W R sin(alpha)) within 1e-9 relative."""
-    from ngs_driver.run.analysis import prepare
-    from verification.rocking import _rotation_field, block_scene
 
     sc = block_scene("finite_rotation", dt=0.004, duration=0.04)
     a = prepare(sc, tmp_path, progress=False)
     s, rot = a.solver, a.rotation
     x = np.asarray(a.model.interface.x)
     piv = (float(x.min()), 0.0)
-    phi = _rotation_field(a.model, piv)
+    phi = rotation_field(a.model, piv)
     th = 0.15
     s.set_initial(u=th * phi)
     f = rot.step_load(s, 0.0)
@@ -116,9 +119,6 @@ def test_a_resumed_finite_rotation_run_is_the_uninterrupted_one(tmp_path):
     (the block's rotation passes 1e-3 rad before the checkpoint), so an offset put back stale
     (the pairing's, of its last pairing) or not at all changes the numbers: it did, with the
     rotation part's restore of the offset left out."""
-    from ngs_driver.apps.dam import RunInterrupted, run
-    from ngs_driver.post.files import read_csv
-    from verification.rocking import block_scene
 
     quiet = dict(progress=False, plots=False, log=lambda *a, **k: None)
     sc = block_scene("finite_rotation", dt=0.004, duration=0.6,
@@ -172,9 +172,6 @@ def test_reduced_bulk_lever_arm_sums_and_load_are_the_full_bulks(tmp_path):
     angle (a push of the full DOFs projected on the basis beside the dead load) are the full
     bulk's (1e-9 relative; measured 1.6e-15). Q of gravity summed in the reduced coordinates
     (f_r . [psi_b, 0]) would be -1.50e6 N m instead of -2.45e6: psi is not in the basis."""
-    from ngs_driver.fe.blocks import linear_fields
-    from ngs_driver.run.analysis import prepare
-    from verification.rocking import _rotation_field, block_scene
 
     th, ax, ay = 0.15, 0.3 * 9.81, 0.1 * 9.81
     out = {}
@@ -185,7 +182,7 @@ def test_reduced_bulk_lever_arm_sums_and_load_are_the_full_bulks(tmp_path):
         s, m = a.solver, a.model
         x = np.asarray(m.interface.x)
         pivots = [(float(x.min()), 0.0), (float(x.max()), 0.0), (float(x.mean()), 0.0)]
-        phis = [_rotation_field(m, p) for p in pivots]
+        phis = [rotation_field(m, p) for p in pivots]
         s.set_initial(u=th * phis[0])
         f = a.rotation.step_load(s, 0.0, ax, ay)
         F = linear_fields(m, [r for r in m.regions if r != "rock"])

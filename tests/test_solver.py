@@ -4,6 +4,8 @@ The model is toymodel.block_on_block: a 4 m x 2 m elastic "dam" on an
 8 m x 2 m "rock", P1 triangles, matching interface nodes, 2 Gauss points per interface segment.
 Low strengths (30 kPa) so a crest load opens, closes, slides and damages the interface.
 """
+import inspect
+
 import numpy as np
 import pytest
 
@@ -11,6 +13,8 @@ pytest.importorskip("scipy")
 
 from interfacelaw import (CohesiveParams, ContactParams, DamageParams, FrictionParams,
                           InterfaceLaw)
+from ngs_driver.solve.coupled import CoupledField
+from ngs_driver.solve.fluid import FluidStepper, GroundPressureLoad
 from ngs_driver.solve.joint_solver import JointSolver, SolverError
 from toymodel import block_on_block
 
@@ -462,9 +466,6 @@ def test_coupled_fields_declare_the_protocol():
     """The water classes give the solver every method of ``CoupledField`` (solve/coupled.py):
     the protocol is what ``JointSolver`` calls, so a renamed or missing method fails here, not
     in a long reservoir run."""
-    import inspect
-    from ngs_driver.solve.coupled import CoupledField
-    from ngs_driver.solve.fluid import FluidStepper, GroundPressureLoad
     wanted = {n for n, _ in inspect.getmembers(CoupledField, inspect.isfunction)
               if not n.startswith("_")}
     assert wanted == {"bind", "matrix", "rhs", "commit", "checkpoint", "restore"}

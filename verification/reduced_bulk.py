@@ -29,15 +29,16 @@ import time
 
 import numpy as np
 
+from ngs_driver.apps.dam import run
+from ngs_driver.post.files import read_csv
+from ngs_driver.scene import load_scene
+
 MODES = (10, 20, 40, 80)
 MODES_FAST = (5, 20)
 MODES_FULL_INTENSITY = (20, 40)
 
 
 def _one(scene, out):
-    from ngs_driver.apps.dam import run
-    from ngs_driver.post.files import read_csv
-
     t0 = time.perf_counter()
     s = run(scene, out, progress=False, plots=False)
     wall = time.perf_counter() - t0
@@ -76,8 +77,6 @@ def _fmt(v, f):
 
 
 def main(fast: bool = False, outdir="results/verification/reduced_bulk") -> dict:
-    from ngs_driver.scene import load_scene
-
     out = pathlib.Path(outdir)
     out.mkdir(parents=True, exist_ok=True)
     modes = MODES_FAST if fast else MODES
@@ -118,7 +117,7 @@ def main(fast: bool = False, outdir="results/verification/reduced_bulk") -> dict
                      f"{r['per_step_ms']:.2f} | {r['run_s']:.2f} |")
     (out / "reduced_bulk.md").write_text("\n".join(lines) + "\n")
     try:
-        import matplotlib.pyplot as plt
+        import matplotlib.pyplot as plt      # optional: the figure only where it is installed
         fig, ax = plt.subplots(1, 2, figsize=(9, 3.5))
         for name in cases:
             rr = [r for r in rows if r["case"] == name and r["bulk"] == "reduced"]

@@ -38,11 +38,15 @@ import tempfile
 import time
 
 import numpy as np
+from scipy.integrate import solve_ivp
 
 HERE = pathlib.Path(__file__).resolve().parent
 if str(HERE.parent) not in sys.path:
     sys.path.insert(0, str(HERE.parent))
 
+from ngs_driver.fe.blocks import linear_fields  # noqa: E402
+from ngs_driver.run.analysis import prepare  # noqa: E402
+from ngs_driver.scene import load_scene  # noqa: E402
 from verification.housner import free_rocking_quarter, rocking_response  # noqa: E402
 
 G = 9.81
@@ -60,7 +64,6 @@ REDUCED = ("solver.bulk=reduced",)                # the reduced bulk's cases (it
 
 def block_scene(kinematics="finite_rotation", dt=0.002, duration=3.0, record=None,
                 extra=()):
-    from ngs_driver.scene import load_scene
     duration = round(math.ceil(duration / dt - 1e-9) * dt, 10)   # whole steps
     rec = record or "pulse:half-sine:1e-9:0.1"       # no ground motion (a negligible pulse)
     sets = [f"geometry.profile=[[0,0],[{2 * B_HALF!r},0],[{2 * B_HALF!r},{2 * H_HALF!r}],"
@@ -74,8 +77,9 @@ def block_scene(kinematics="finite_rotation", dt=0.002, duration=3.0, record=Non
     return load_scene("sliding_block", sets + list(extra))
 
 
-def _rotation_field(model, pivot):
-    from ngs_driver.fe.blocks import linear_fields
+def rotation_field(model, pivot):
+    """The unit rigid rotation (1 rad, linearised) of the blocks above the rock about
+    ``pivot`` = (x, y), in the model's coordinates."""
     F = linear_fields(model, [r for r in model.regions if r != "rock"])
     cx, cy = pivot
     # a rigid field: in the model's coordinates (a reduced bulk's basis holds it exactly)
@@ -87,14 +91,13 @@ def release(sc, theta0=0.0, omega0=0.0, outdir=None):
     pivot and spinning at omega0 (rad, rad/s; counter-clockwise). Returns (t, theta, stop):
     the history of the base joint's rotation and the stop entry (None: the record's end).
     With the small-rotation kinematics the range check is lifted (to show their error)."""
-    from ngs_driver.run.analysis import prepare
     out = outdir or tempfile.mkdtemp(prefix="rocking_")
     a = prepare(sc, out, progress=False, overwrite=True)
     a.static()
     s = a.solver
     x = np.asarray(a.model.interface.x)
     pivot = (float(x.min()), float(np.mean(a.model.interface.y)))
-    phi = _rotation_field(a.model, pivot)
+    phi = rotation_field(a.model, pivot)
     s.set_initial(u=s.u + theta0 * phi, v=omega0 * phi)
     f0 = a.f_static.copy()
     if a.rotation is not None:
@@ -116,7 +119,6 @@ def release(sc, theta0=0.0, omega0=0.0, outdir=None):
 
 def run_pulse(sc, outdir=None):
     """A plain run (the ground pulse of ``sc``); (t, theta, stop)."""
-    from ngs_driver.run.analysis import prepare
     a = prepare(sc, outdir or tempfile.mkdtemp(prefix="rocking_"), progress=False,
                 overwrite=True)
     a.static()
@@ -176,7 +178,6 @@ def critical_omega():
 def topple_time_exact(omega0):
     """(t at |theta| = alpha or None, largest theta, impact time or None) of the exact
     equation from theta = 0 at omega0."""
-    from scipy.integrate import solve_ivp
     _, p2 = critical_omega()
 
     def rhs(t, y):

@@ -50,6 +50,7 @@ import ngs_driver
 from ngs_driver.post.outputs import RunOutputs
 from ngs_driver.run.analysis import prepare
 from ngs_driver.scene import load_scene
+from ngs_driver.solve.damping import LowRankFactor
 
 WARM = 20            # first steps left out (numba compiles, the step's factorisation)
 REPS = 400           # forward + backward solves timed
@@ -92,7 +93,6 @@ def timer(parts: dict, obj, name: str, label: str):
 
 def wrap_parts(a, parts: dict) -> list:
     """Timers on the parts of a step (``--parts``); returns what to put back."""
-    from ngs_driver.solve.damping import LowRankFactor
     s = a.solver
     undo = []
     for obj, name, label in (

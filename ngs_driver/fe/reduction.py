@@ -42,6 +42,8 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spl
 from scipy.sparse.csgraph import connected_components
 
+from .pairing import lower_faces
+
 __all__ = ["Reduction", "FullBulk", "ReducedCoordinates", "reduce_model", "boundary_dofs", "BULKS"]
 
 BULKS = ("full", "reduced")
@@ -198,8 +200,6 @@ def _reduced_class(base):
 
 def boundary_dofs(model) -> np.ndarray:
     """The DOFs kept physical (module docstring), full free indices, sorted."""
-    from .pairing import lower_faces
-
     sets = [np.unique(model.interface.B.indices), np.asarray(model.crest_dofs, np.int64)]
     res = getattr(model, "reservoir", None)
     if res is not None:

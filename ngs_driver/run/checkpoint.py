@@ -241,15 +241,6 @@ class Checkpointer:
         if e is not None:
             raise e
 
-    def load_meta(self) -> dict | None:
-        """The newest readable manifest (no arrays read), or None."""
-        for p in (self.meta_path, self.prev_path):
-            try:
-                return json.loads(p.read_text())
-            except (OSError, ValueError):
-                continue
-        return None
-
     def _read(self, path):
         """(meta, arrays) of the manifest ``path``; CheckpointDamaged naming what is wrong."""
         def damaged(step, why):

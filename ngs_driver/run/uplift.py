@@ -110,10 +110,6 @@ class Uplift(Part):
     def load(self, p) -> np.ndarray:
         return self.field.load(p)
 
-    def static_load(self) -> np.ndarray | float:
-        """f_U of the pre-earthquake pressure (0.0 without uplift)."""
-        return self.field.load(self.p_static) if self.active else 0.0
-
     def solve(self, solver, call, f_base, p0, dependent):
         """``call(f)`` (solver.static or solver.step) with f = f_base + f_U(p), p consistent
         with the crack state the solve ends in. Returns (report, p, f)."""

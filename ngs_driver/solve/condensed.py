@@ -5,7 +5,10 @@ K0 = diag(k_N, k_T) the law's initial elastic stiffness (frozen in the factorise
 phi(g) = t(g) - K0 g the nonlinear correction (zero at every point still in its initial elastic
 state). For the step size h the effective matrix
 
-    A = c0 M + c (K + c1 C) + c B^T W K0 B            (c = 1 + alpha_hht; static: K + B^T W K0 B)
+    A = c0 (1 - alpha_m) M + c (K + c1 C) + c B^T W K0 B     (c = 1 + alpha_hht = 1 - alpha_f;
+                                                              static: K + B^T W K0 B)
+
+(solve/integrator.py ``TimeDiscretisation.matrix``, plus a coupled field's block)
 
 is constant: factorised once per h (cached). With u_lin = A^-1 rhs and S = B A^-1 B^T,
 

@@ -2,12 +2,14 @@
 time by an implicit integrator of the Newmark family (Newmark, HHT, generalized alpha), with the
 Newton on the joints' gaps (docs/solver.md, docs/architecture.md).
 
-Equation (relative formulation, free DOFs, plane strain):
+Equation (relative formulation, free DOFs; plane strain or plane stress, as the model's K):
 
-    M u'' + C u' + K u + B^T W t(B u) = f(t),          f = f_static - M r a_g(t)
+    M u'' + C u' + K u + B^T W t(B u + g_0) = f(t),          f = f_static - M r a_g(t)
 
-B (2 npts x ndof, CSR): gap of point p  g_p = (g_N, g_T) = B[2p:2p+2] @ u;  W = diag(w) with w
-(npts,) the integration weights; t = law.evaluate(g) the interface traction (interfacelaw).
+B (2 npts x ndof, CSR): gap of point p  g_p = (g_N, g_T) = B[2p:2p+2] @ u + g_0[2p:2p+2] (g_0
+the gap offset: zero until a sliding joint is paired anew or a finite rotation corrects it,
+``set_operator`` / ``set_offset``);  W = diag(w) with w (npts,) the integration weights;
+t = law.evaluate(g) the interface traction (interfacelaw).
 
 The concepts live in their own modules; this class wires them and keeps the public methods:
 
