@@ -27,6 +27,8 @@ def test_extrapolation_is_the_fitted_line_summed_over_the_suite():
     expected = 10 * (44 * 2.0 + 0.5 * sum(lengths.values())) / 2 / 3600
     assert e["wall_h_on_workers"] == pytest.approx(expected, rel=1e-12)
     assert e["runs"] == 440
+    T = [r["t_sim_s"] for r in rows]          # the ratio estimator: (4 x 2 s + 0.5 sum T) / sum T
+    assert e["ratio_s_per_s"] == pytest.approx((8.0 + 0.5 * sum(T)) / sum(T), rel=1e-12)
 
 
 def test_comparison_flags_a_slip_or_crack_outside_the_tolerance():

@@ -109,7 +109,11 @@ def extrapolate(rows, lengths, levels=LEVELS, workers=WORKERS, key="wall_s") -> 
     a, b = fit(rows, key)
     per_level = sum(a + b * L for L in lengths.values())
     total = per_level * len(levels)
+    # the ratio estimator beside the line: sum of the times over sum of the simulated seconds
+    ratio = sum(r[key] for r in rows) / sum(r["t_sim_s"] for r in rows)
     return {"a_s": a, "b_s_per_s": b, "runs": len(lengths) * len(levels),
+            "ratio_s_per_s": ratio,
+            "ratio_h_on_workers": ratio * sum(lengths.values()) * len(levels) / workers / 3600,
             "record_seconds": sum(lengths.values()) * len(levels),
             "sum_wall_s": total, "wall_h_on_workers": total / workers / 3600.0,
             "workers": workers,
@@ -159,14 +163,17 @@ def table(rows, ext, cmp_rows, lengths, h_element, command) -> str:
           f"over the suite's {len(lengths)} lengths ({sum(lengths.values()):.1f} s) x "
           f"{len(LEVELS)} levels, / {WORKERS} workers; every run to the end of its record):", "",
           "| bulk | time | runs fitted | a [s] | b [s per s of record] | 440 runs, sum [h] | "
-          f"on {WORKERS} workers [h] | target ≤ {TARGET_H:g} h |",
-          "|---|---|---|---|---|---|---|---|"]
+          f"on {WORKERS} workers [h] | ratio Σtime/ΣT [s per s] | on {WORKERS} workers, ratio "
+          f"[h] | target ≤ {TARGET_H:g} h |",
+          "|---|---|---|---|---|---|---|---|---|---|"]
     for name, e in ext.items():
         bulk, key = name.split(":")
+        worst = max(e["wall_h_on_workers"], e["ratio_h_on_workers"])
         L.append(f"| {bulk} | {'wall' if key == 'wall_s' else 'CPU'} | {e['n']} | "
                  f"{e['a_s']:.2f} | {e['b_s_per_s']:.3f} | "
                  f"{e['sum_wall_s'] / 3600:.2f} | {e['wall_h_on_workers']:.2f} | "
-                 f"{'met' if e['wall_h_on_workers'] <= TARGET_H else 'not met'} |")
+                 f"{e['ratio_s_per_s']:.3f} | {e['ratio_h_on_workers']:.2f} | "
+                 f"{'met' if worst <= TARGET_H else 'not met'} |")
     L += ["", f"Reduced against full bulk (slip within 2 % or 1 mm; heel crack within one heel "
           f"element, {h_element:g} m):", "",
           "| record | PGA [g] | slip full [mm] | slip reduced [mm] | diff [mm] | ok | "
