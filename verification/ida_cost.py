@@ -196,12 +196,16 @@ def main(argv=None) -> int:
     p.add_argument("--budget", type=float, default=math.inf,
                    help="no run is started after this many seconds")
     p.add_argument("--first", type=int, default=None, help="only the first N entries of the plan")
+    p.add_argument("--reduced-only", action="store_true",
+                   help="the plan's runs with the reduced bulk only (a second pass)")
     a = p.parse_args(argv)
     out = pathlib.Path(a.out)
     out.mkdir(parents=True, exist_ok=True)
     scene_name = "koyna_smoke" if a.fast else SCENE
     plan = FAST_PLAN if a.fast else PLAN
     plan = plan[:a.first] if a.first else plan
+    if a.reduced_only:
+        plan = [(n, c, lv, False) for n, c, lv, _ in plan]
     window = "scene" if a.fast else "record"
     over = FAST_OVERRIDES if a.fast else []
     bases = {"reduced": load_scene(scene_name, over + ['solver.bulk="reduced"']),
@@ -246,7 +250,8 @@ def main(argv=None) -> int:
                 ext[f"{bulk}:{key}"] = {**extrapolate(rs, lengths, key=key), "n": len(rs)}
     cmp_rows = compare(rows, h_element)
     command = ("python verification/ida_cost.py" + (" --fast" if a.fast else "")
-               + f" --out {a.out}" + ("" if math.isinf(a.budget) else f" --budget {a.budget:g}"))
+               + f" --out {a.out}" + ("" if math.isinf(a.budget) else f" --budget {a.budget:g}")
+               + (" --reduced-only" if a.reduced_only else ""))
     md = table(rows, ext, cmp_rows, lengths, h_element, command)
     (out / "ida_cost.md").write_text(md)
     (out / "ida_cost.json").write_text(json.dumps(
