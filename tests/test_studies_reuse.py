@@ -96,3 +96,19 @@ def test_a_different_model_is_not_served_from_the_cache():
     assert (hit0, hit1, hit2) == (False, True, False)
     assert m1 is m0 and m2 is not m0 and m2.nfree != m0.nfree      # a finer heel: more DOFs
     assert reuse.stats()["cached"] == 1                            # bounded: one scene
+
+
+@needs
+def test_each_run_gets_its_own_gap_operator():
+    """A run changes the interface's gap operator B in place (finite sliding re-pairs on it;
+    found on koyna_engineering, where a cached model's second run differed from a fresh
+    process's by 1e-6 of its slip): each run's model holds its own copy, the cache's stays."""
+    from ngs_driver.scene import load_scene
+    from ngs_driver.studies import reuse
+    reuse.clear()
+    a, _ = reuse.model_for(load_scene("koyna_smoke", WINDOW))
+    before = a.interface.B.copy()
+    a.interface.B.data *= 2.0                  # what a re-pairing does to the run's B
+    b, hit = reuse.model_for(load_scene("koyna_smoke", WINDOW))
+    assert hit and b.interface.B is not a.interface.B and b.K is a.K       # the rest shared
+    assert (b.interface.B != before).nnz == 0                               # as built

@@ -13,22 +13,25 @@ time with ``threads_per_worker=1``; an IDA has one scene); a run needs its model
 cache adds at most one model's memory between runs (koyna_engineering: tens of MB against a
 run's peak of ~0.5 GB, BENCHMARKS.md). ``clear()`` empties it.
 
-The model is not changed by a run (a run builds its own solver, damping, reservoir stepper and
-laws from it; the pairing replaces the solver's operator, not the model's): a run on a cached
-model gives the same ``summary.json`` numbers bit for bit as a run in a fresh process
-(tests/test_studies_reuse.py). The static state and the solver's factorisations are not
+A run builds its own solver, damping, reservoir stepper and laws from the model and changes
+one of its arrays in place: the interface's gap operator B (finite sliding re-pairs on it).
+Each run therefore gets ``for_run(model)``: its own copy of B, the rest shared. With it a run
+on a cached model gives the same ``summary.json`` numbers bit for bit as a run in a fresh
+process (tests/test_studies_reuse.py; without the copy, a koyna_engineering run that re-paired
+its base changed the next run's permanent slip by ~1e-6 of its value). The static state and the solver's factorisations are not
 reused: the first depends on the joints' laws and the uplift the run starts from, the second is
 built inside the joint solver with the run's damping and step (``solve/``); both cost a few
 per cent of a whole-record run (docs/studies.md, BENCHMARKS.md)."""
 from __future__ import annotations
 
+import copy
 import hashlib
 import time
 
 from ..fe.model import build_from_inputs
 from ..setup import model_inputs
 
-__all__ = ["MAX_SCENES", "model_key", "model_for", "clear", "stats"]
+__all__ = ["MAX_SCENES", "model_key", "model_for", "for_run", "clear", "stats"]
 
 MAX_SCENES = 1
 _cache: dict = {}            # model_key -> model (at most MAX_SCENES entries)
@@ -51,14 +54,26 @@ def model_for(scene):
     key = model_key(scene)
     if key in _cache:
         _stats["hits"] += 1
-        return _cache[key], True
+        return for_run(_cache[key]), True
     _cache.clear()                   # MAX_SCENES = 1: the previous scene's model goes first
     t = time.perf_counter()
     model = build_from_inputs(model_inputs(scene))
     _stats["builds"] += 1
     _stats["build_s"] += time.perf_counter() - t
     _cache[key] = model
-    return model, False
+    return for_run(model), False
+
+
+def for_run(model):
+    """The cached model as one run may use it: a shallow copy whose interface has its own gap
+    operator B. A run changes B in place (finite sliding pairs a sliding joint's points anew
+    on its ``model.interface.B``; measured on koyna_engineering: B is the only array of the
+    model a run changes), so each run gets a copy of B (a few hundred kB) and the cached model
+    stays as built; every other array is shared, read only."""
+    run_model = copy.copy(model)
+    run_model.interface = copy.copy(model.interface)
+    run_model.interface.B = model.interface.B.copy()
+    return run_model
 
 
 def clear() -> None:
