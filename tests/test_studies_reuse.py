@@ -94,7 +94,7 @@ def test_a_different_model_is_not_served_from_the_cache():
     m1, hit1 = reuse.model_for(other_gm)
     m2, hit2 = reuse.model_for(other_mesh)
     assert (hit0, hit1, hit2) == (False, True, False)
-    assert m1 is m0 and m2 is not m0 and m2.nfree != m0.nfree      # a finer heel: more DOFs
+    assert m1.K is m0.K and m2.K is not m0.K and m2.nfree != m0.nfree   # finer heel: more DOFs
     assert reuse.stats()["cached"] == 1                            # bounded: one scene
 
 
