@@ -41,7 +41,6 @@ from tqdm import tqdm
 
 import ngs_driver
 
-from ..fe.model import build_from_scene
 from ..post.files import atomic_write_bytes, atomic_write_json, atomic_write_text
 from ..post.outputs import RunOutputs
 from ..run import prepare
@@ -52,7 +51,7 @@ from ..setup import describe, joint_inputs, load_ground_motion, validate
 from ..setup import fema_records as fema
 from ..setup.ground_motion import integrate
 from ..solve.stepping import SolverError
-from . import sweep
+from . import reuse, sweep
 from .fragility import DEFAULT_LIMIT_STATES, exceedances, fit_lognormal, probability
 from .im import IM_LABEL, IMS, first_period, scale_factor
 
@@ -299,7 +298,9 @@ def execute(spec: dict, root: str) -> dict:
                                     "host": socket.gethostname(), "time": time.time()})
         scene = from_dict(spec["scene"])
         t0 = time.perf_counter()
-        model = build_from_scene(scene)
+        # the model (and its reduced basis) of the last run's scene when they are the same
+        # (``reuse``: one per worker process; the record and scale do not enter it)
+        model, reused = reuse.model_for(scene)
         base = _base_slice(scene, model)
         status, message, summary = "ok", None, None
         # an attempt retried after a dead worker replaces the earlier attempt's files
@@ -320,7 +321,7 @@ def execute(spec: dict, root: str) -> dict:
         result = {k: v for k, v in spec.items() if k != "scene"}
         result.update({"status": status, "message": message, "demands": demands,
                        "wall_s": time.perf_counter() - t0, "attempts": attempts,
-                       "worker": worker, "finished": time.time()})
+                       "worker": worker, "finished": time.time(), "model_reused": reused})
         if summary is not None:
             result["ground_motion"] = summary["ground_motion"]
         return sweep.write_result(d, result)
