@@ -19,37 +19,22 @@ import gc
 import json
 import os
 import pathlib
-import tempfile
 import time
 
 import numpy as np
 
 import ngs_driver
-from ngs_driver.post.outputs import RunOutputs
-from ngs_driver.run.analysis import prepare
-from ngs_driver.scene import load_scene
+# the script's own folder is first on the path: step_cost, beside it, imports the same checkout
+from step_cost import prepared_koyna
 
 WARM = 20            # first steps left out (numba compiles, the step's factorisation)
 
 
 def measure(duration: float) -> dict:
-    sc = load_scene("koyna", ["ground_motion.scale=0.2", "interface.friction=0.8",
-                              f"time.duration={duration}"])
-    out = pathlib.Path(tempfile.mkdtemp(prefix="bench_step_"))
-    a = prepare(sc, out, outputs=RunOutputs(plots=False), progress=False,
-                log=lambda *x, **k: None)
-    a.static()
+    a, solver_ms = prepared_koyna(["ground_motion.scale=0.2", "interface.friction=0.8",
+                                   f"time.duration={duration}"], "bench_step_")
     s = a.solver
-    solver_ms, run_ms = [], []
-    step = s.step
-
-    def timed(*args, **kw):
-        t0 = time.perf_counter()
-        try:
-            return step(*args, **kw)
-        finally:
-            solver_ms.append(1e3 * (time.perf_counter() - t0))
-    s.step = timed                  # the instance's step: the class's method, timed
+    run_ms = []
     gc.freeze()
     try:
         while True:

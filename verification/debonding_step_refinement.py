@@ -38,7 +38,6 @@ s, the same unzipping at 2 ms, 31.25 us and 7.8 us, and without the size-scale u
 """
 from __future__ import annotations
 
-import argparse
 import json
 import math
 import pathlib
@@ -51,6 +50,8 @@ HERE = pathlib.Path(__file__).resolve().parent
 ROOT = HERE.parent
 if str(ROOT) not in sys.path:
     sys.path.insert(0, str(ROOT))
+
+from verification.study_cli import run_from_command_line, study_dir  # noqa: E402
 
 L_NC = 2 * 250.0 / 3.0e6                 # l_Nc of the paper's interface [m] (1/6000 m)
 RATE = ["interface.alpha=2.0", "interface.damage_form=rate",
@@ -507,8 +508,7 @@ def _figure_data(r, m) -> dict:
 
 def main(fast: bool = False, outdir=None) -> dict:
     cfg = FAST if fast else FULL
-    out = pathlib.Path(outdir if outdir is not None else HERE / "out")
-    out.mkdir(parents=True, exist_ok=True)
+    out = study_dir(outdir, HERE)
     work = out / "debonding_step_refinement_runs"
     res = {"fast": fast, "cases": {}}
     for name, c in cfg.items():
@@ -540,9 +540,5 @@ def main(fast: bool = False, outdir=None) -> dict:
 
 
 if __name__ == "__main__":
-    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("--fast", action="store_true", help="the tests' version (koyna_smoke)")
-    ap.add_argument("--out", default=str(HERE / "out"))
-    a = ap.parse_args()
-    main(a.fast, a.out)
-    print((pathlib.Path(a.out) / "debonding_step_refinement.md").read_text())
+    run_from_command_line(main, __doc__, "debonding_step_refinement", HERE,
+                          fast_help="the tests' version (koyna_smoke)")

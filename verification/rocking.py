@@ -30,7 +30,6 @@ impact belongs to the contact law, not to Housner's model.
 """
 from __future__ import annotations
 
-import json
 import math
 import pathlib
 import sys
@@ -48,6 +47,7 @@ from ngs_driver.fe.blocks import linear_fields  # noqa: E402
 from ngs_driver.run.analysis import prepare  # noqa: E402
 from ngs_driver.scene import load_scene  # noqa: E402
 from verification.housner import free_rocking_quarter, rocking_response  # noqa: E402
+from verification.study_cli import run_from_command_line, study_dir, write_report  # noqa: E402
 
 G = 9.81
 B_HALF, H_HALF = 1.0, 5.0          # m: the block's half-width and half-height
@@ -341,21 +341,13 @@ def report(res) -> str:
 
 def main(fast: bool = False, outdir=None) -> dict:
     cfg = FAST if fast else FULL
-    out = pathlib.Path(outdir if outdir is not None else HERE / "out")
-    out.mkdir(parents=True, exist_ok=True)
+    out = study_dir(outdir, HERE)
     res = {"fast": fast, "alpha": ALPHA, "inset": INSET, "free": free_cases(cfg),
            "dt": dt_study(cfg), "topple": toppling_cases(cfg), "pulses": pulse_cases(cfg)}
     res["reduced"] = reduced_cases(cfg, res["free"], res["topple"])
-    (out / "rocking.md").write_text(report(res))
-    (out / "rocking.json").write_text(json.dumps(res, indent=1, default=float))
+    write_report(out, "rocking", report(res), res)
     return res
 
 
 if __name__ == "__main__":
-    import argparse
-    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("--fast", action="store_true")
-    ap.add_argument("--out", default=str(HERE / "out"))
-    a = ap.parse_args()
-    main(a.fast, a.out)
-    print((pathlib.Path(a.out) / "rocking.md").read_text())
+    run_from_command_line(main, __doc__, "rocking", HERE)

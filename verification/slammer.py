@@ -38,7 +38,6 @@ the whole base in contact, so the block does not rock.
 from __future__ import annotations
 
 import csv
-import json
 import math
 import pathlib
 import sys
@@ -52,6 +51,7 @@ if str(HERE.parent) not in sys.path:
 
 from verification.rigid_block import rigid_block_slip  # noqa: E402
 from verification.sliding import run_case  # noqa: E402
+from verification.study_cli import run_from_command_line, study_dir, write_report  # noqa: E402
 
 DATA = HERE / "data" / "slammer"
 G_STD = 9.80665          # m/s^2: the records' g (SLAMMER's records and k_y are in g); the runs
@@ -419,22 +419,14 @@ def report(res) -> str:
 
 def main(fast: bool = False, outdir=None) -> dict:
     cfg = FAST if fast else FULL
-    out = pathlib.Path(outdir if outdir is not None else HERE / "out")
-    out.mkdir(parents=True, exist_ok=True)
+    out = study_dir(outdir, HERE)
     work = pathlib.Path(tempfile.mkdtemp(prefix="slammer_"))
     rigid = rigid_rows(cfg)
     res = {"fast": fast, "rigid": rigid, "stiff": stiff_rows(cfg, work, rigid),
            "concrete": concrete_rows(cfg, work)}
-    (out / "slammer.md").write_text(report(res))
-    (out / "slammer.json").write_text(json.dumps(res, indent=1, default=float))
+    write_report(out, "slammer", report(res), res)
     return res
 
 
 if __name__ == "__main__":
-    import argparse
-    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("--fast", action="store_true")
-    ap.add_argument("--out", default=str(HERE / "out"))
-    a = ap.parse_args()
-    main(a.fast, a.out)
-    print((pathlib.Path(a.out) / "slammer.md").read_text())
+    run_from_command_line(main, __doc__, "slammer", HERE)

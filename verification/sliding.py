@@ -22,7 +22,6 @@ Every run goes through ``ngs_driver.run.run`` (the ``run`` command) on the shipp
 """
 from __future__ import annotations
 
-import json
 import math
 import pathlib
 import sys
@@ -36,6 +35,7 @@ if str(HERE.parent) not in sys.path:
     sys.path.insert(0, str(HERE.parent))
 
 from verification.rigid_block import rigid_block_slip  # noqa: E402
+from verification.study_cli import run_from_command_line, study_dir, write_report  # noqa: E402
 
 G = 9.81
 RHO_C, RHO_W = 2500.0, 1000.0
@@ -379,23 +379,15 @@ def report(res) -> str:
 
 def main(fast: bool = False, outdir=None) -> dict:
     cfg = FAST if fast else FULL
-    out = pathlib.Path(outdir if outdir is not None else HERE / "out")
-    out.mkdir(parents=True, exist_ok=True)
+    out = study_dir(outdir, HERE)
     work = pathlib.Path(tempfile.mkdtemp(prefix="sliding_"))
     res = {"fast": fast, "sliding": sliding_cases(cfg, work), "dt": dt_convergence(cfg, work),
            "stiffness": stiffness_sweep(cfg, work), "concrete_dt": concrete_dt(cfg, work),
            "rocking": rocking_onset(cfg, work),
            "integrators": integrators(cfg, work)}
-    (out / "sliding.md").write_text(report(res))
-    (out / "sliding.json").write_text(json.dumps(res, indent=1, default=float))
+    write_report(out, "sliding", report(res), res)
     return res
 
 
 if __name__ == "__main__":
-    import argparse
-    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("--fast", action="store_true")
-    ap.add_argument("--out", default=str(HERE / "out"))
-    a = ap.parse_args()
-    main(a.fast, a.out)
-    print((pathlib.Path(a.out) / "sliding.md").read_text())
+    run_from_command_line(main, __doc__, "sliding", HERE)

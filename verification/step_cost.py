@@ -124,17 +124,17 @@ def wrap_parts(a, parts: dict) -> list:
     return undo
 
 
-def measure(duration: float, elastic: bool = False, profile: str | None = None,
-            parts: bool = False) -> dict:
-    sc = load_scene("koyna", sets(duration, elastic))
-    out = pathlib.Path(tempfile.mkdtemp(prefix="step_cost_"))
-    t_all = time.perf_counter()
+def prepared_koyna(overrides: list, prefix: str):
+    """The koyna scene with ``overrides`` prepared (no figures) and its static state solved, its
+    solver's ``step`` timed into the returned list [ms] (the instance's step: the class's
+    method, timed). Also used by verification/bench_step.py."""
+    sc = load_scene("koyna", overrides)
+    out = pathlib.Path(tempfile.mkdtemp(prefix=prefix))
     a = prepare(sc, out, outputs=RunOutputs(plots=False), progress=False,
                 log=lambda *x, **k: None)
     a.static()
-    s = a.solver
-    solver_ms, run_ms = [], []
-    step = s.step
+    solver_ms = []
+    step = a.solver.step
 
     def timed(*args, **kw):
         t0 = time.perf_counter()
@@ -142,7 +142,16 @@ def measure(duration: float, elastic: bool = False, profile: str | None = None,
             return step(*args, **kw)
         finally:
             solver_ms.append(1e3 * (time.perf_counter() - t0))
-    s.step = timed                  # the instance's step: the class's method, timed
+    a.solver.step = timed
+    return a, solver_ms
+
+
+def measure(duration: float, elastic: bool = False, profile: str | None = None,
+            parts: bool = False) -> dict:
+    t_all = time.perf_counter()
+    a, solver_ms = prepared_koyna(sets(duration, elastic), "step_cost_")
+    s = a.solver
+    run_ms = []
     pt = {}
     undo = wrap_parts(a, pt) if parts else []
     prof = cProfile.Profile() if profile else None

@@ -38,6 +38,15 @@ VERDICTS = ("no_collapse", "collapse", "undetermined")
 COLLAPSE_MODES = ("toppling", "sliding off", "friction unable to hold the static loads")
 
 
+
+def _out_of_range(joint, t, k, measure, value, model_range, what, limit) -> dict:
+    """The entry of a run that left the model's range (verdict undetermined, not a collapse)."""
+    return {"joint": joint, "time": float(t), "step": int(k), "verdict": "undetermined",
+            "range": model_range,
+            "reason": f"{what}, left the model's range ({limit}): the verdict past it is "
+                      f"undetermined, not a collapse",
+            "measure": measure, "value": float(value)}
+
 class CollapseRule(Part):
     """The collapse rule as a run part (``run.parts``): after each step it sets the step's
     ``stop`` when a joint collapsed or left the model's range (when no part set one before:
@@ -98,22 +107,19 @@ class CollapseRule(Part):
                                   f"{self.lengths[i]:.4g} m (sliding off)",
                         "measure": "slip", "value": float(slip[i])}
             if abs(rot[i]) > self.max_rotation:
-                return {"joint": n, "time": float(t), "step": int(k), "verdict": "undetermined",
-                        "range": f"{kin} kinematics: |rotation| <= time.max_rotation "
-                                 f"= {self.max_rotation:g} rad (docs/solver.md §11)",
-                        "reason": f"the rotation of the block above joint {n!r}, "
-                                  f"{rot[i]:.4g} rad, left the model's range (time.max_rotation "
-                                  f"= {self.max_rotation:g} rad, the {kin} kinematics): "
-                                  f"the verdict past it is undetermined, not a collapse",
-                        "measure": "rotation", "value": float(rot[i])}
+                return _out_of_range(
+                    n, t, k, "rotation", rot[i],
+                    f"{kin} kinematics: |rotation| <= time.max_rotation "
+                    f"= {self.max_rotation:g} rad (docs/solver.md §11)",
+                    f"the rotation of the block above joint {n!r}, {rot[i]:.4g} rad",
+                    f"time.max_rotation = {self.max_rotation:g} rad, the {kin} kinematics")
             if abs(slip[i]) > self.max_slip:
-                return {"joint": n, "time": float(t), "step": int(k), "verdict": "undetermined",
-                        "range": f"small-displacement sliding: |slip| <= time.max_slip = "
-                                 f"{self.max_slip:g} m",
-                        "reason": f"the slip of joint {n!r}, {slip[i]:.4g} m, left the model's "
-                                  f"range (time.max_slip = {self.max_slip:g} m): the verdict "
-                                  f"past it is undetermined, not a collapse",
-                        "measure": "slip", "value": float(slip[i])}
+                return _out_of_range(
+                    n, t, k, "slip", slip[i],
+                    f"small-displacement sliding: |slip| <= time.max_slip = "
+                    f"{self.max_slip:g} m",
+                    f"the slip of joint {n!r}, {slip[i]:.4g} m",
+                    f"time.max_slip = {self.max_slip:g} m")
         if prev is None:
             return None
         rate = (slip - prev) / dt
