@@ -89,18 +89,20 @@ def seismic_load(f_static, Mrx, Mry, ax, ay):
     return f
 
 
-def make_solver(inputs, model, C, law, C_lowrank=None, coupled=None):
+def make_solver(inputs, model, C, law, C_lowrank=None, coupled=None, rayleigh=None):
     """The joint solver of the scene's [time] (integrator) and [solver] keys (``inputs``: the
     run's ``setup.RunInputs``); C_lowrank: the low-rank part of the damping
     (``run.damping.low_rank_damping``); coupled: the reservoir's water (solve/coupled.py) or
-    None."""
+    None; rayleigh: (a0, a1) when C = a0 M + a1 K (the step's products then form C's values
+    in their loop, solve/products.py)."""
     ts, sv = inputs.time, inputs.solver
     integrator = Integrator.make(ts.integrator, rho_inf=ts.rho_inf, beta=ts.newmark_beta,
                                  gamma=ts.newmark_gamma)
     return JointSolver(model.K, model.M, C, model.interface.B, model.interface.w, law,
                        dt=ts.dt, integrator=integrator, C_lowrank=C_lowrank,
                        tol_residual=sv.tol_residual, max_iter=sv.max_iter,
-                       stall_iterations=sv.stall_iterations, min_dt=sv.min_dt, coupled=coupled)
+                       stall_iterations=sv.stall_iterations, min_dt=sv.min_dt, coupled=coupled,
+                       rayleigh=rayleigh)
 
 
 def _restart(out, ckp, scene_d):
@@ -210,7 +212,8 @@ class Analysis:
         joints = self.joints
         self.solver = solver = make_solver(
             inp, model, C, joints.solver_law(), self.low_damping,
-            coupled=None if self.reservoir is None else self.reservoir.field)
+            coupled=None if self.reservoir is None else self.reservoir.field,
+            rayleigh=(self.damping["a0"], self.damping["a1"]))
         if self.reservoir is not None:
             self.reservoir.solver = solver
         cracked = joints.cracked_points()

@@ -31,7 +31,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .kernels import newmark_update, rhs_alpha, rhs_combine, rhs_fused, rhs_vectors
-from .products import FusedPair, pair_products, step_products5
+from .products import FusedPair, pair_products
 
 __all__ = ["Integrator", "INTEGRATORS", "TimeDiscretisation"]
 
@@ -106,9 +106,10 @@ class TimeDiscretisation:
     low-rank part of the damping, C = C + a0 U W U^T (solve/damping.py, ``product(y)``).
     The committed state ``cs`` passed to the methods has u, v, a, f and t (solve/committed.py);
     its arrays are replaced at a commit, never modified in place, which is what lets the
-    products formed for the energy budget be reused by the next right-hand side (``rhs``)."""
+    products formed for the energy budget be reused by the next right-hand side (``rhs``).
+    rayleigh: (a0, a1) when C = a0 M + a1 K (checked bit for bit by ``FusedPair``), or None."""
 
-    def __init__(self, integrator: Integrator, K, M, C, lowrank=None):
+    def __init__(self, integrator: Integrator, K, M, C, lowrank=None, rayleigh=None):
         self.integrator = integrator
         self.K, self.M, self.C = K, M, C
         self.lowrank = lowrank
@@ -118,7 +119,7 @@ class TimeDiscretisation:
         self.ndof = K.shape[0]
         # M x and C y of the right-hand side in one compiled pass (bitwise scipy's products);
         # K on the same pattern for ``step_products`` (the energy budget's K u, M v)
-        self.fused = FusedPair(M, C, K) if C is not None else None
+        self.fused = FusedPair(M, C, K, rayleigh=rayleigh) if C is not None else None
         self._work = None
         self._next = None            # (h, u, v, a, M x, C y[, K u, C v]) of step_products
 
@@ -234,8 +235,8 @@ class TimeDiscretisation:
     def step_products(self, cs, dt):
         """(K u, M v) of the committed state, bitwise scipy's ``K @ u`` and ``M @ v`` (the
         energy budget's products), or None when there is no damping matrix. The same
-        compiled pass (``step_products5``) forms the right-hand-side products of a next step of
-        size dt (M x, C y; with HHT / generalized alpha also K u + C v), which ``rhs`` then
+        compiled pass (``FusedPair.products5``) forms the right-hand-side products of a next
+        step of size dt (M x, C y; with HHT / generalized alpha also K u + C v), which ``rhs`` then
         takes instead of forming them (kept while u, v, a are the same arrays)."""
         mc = self.fused
         if mc is None:
@@ -250,8 +251,7 @@ class TimeDiscretisation:
         Ku, Mv, Mx, Cy, Cv = (np.empty(self.ndof) for _ in range(5))
         # the generalized-alpha pass; Newmark's right-hand side does not use its C v (one sum
         # more per row: 0.23 against 0.22 ms on Koyna; the other four bitwise the same)
-        step_products5(mc.indptr, mc.indices, mc.Ax, mc.Bx, mc.Cx, cs.u, cs.v, x, y, Ku,
-                       Mv, Mx, Cy, Cv)
+        mc.products5(cs.u, cs.v, x, y, Ku, Mv, Mx, Cy, Cv)
         if self.lowrank is not None:
             Cy += self.lowrank.product(y)
         self._next = (dt, cs.u, cs.v, cs.a, Mx, Cy)
@@ -269,8 +269,7 @@ class TimeDiscretisation:
         rhs_vectors(cs.u, cs.v, cs.a, np.array([cm * c0, cm * c2, cm * c3 - am]),
                     np.array([c1, c4, c5]), x, y)
         Ku, Mv, Mx, Cy, Cv = (np.empty(self.ndof) for _ in range(5))
-        step_products5(mc.indptr, mc.indices, mc.Ax, mc.Bx, mc.Cx, cs.u, cs.v, x, y, Ku,
-                       Mv, Mx, Cy, Cv)
+        mc.products5(cs.u, cs.v, x, y, Ku, Mv, Mx, Cy, Cv)
         if self.lowrank is not None:
             Cy += self.lowrank.product(y)
             Cv += self.lowrank.product(cs.v)

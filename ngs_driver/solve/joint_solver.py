@@ -105,7 +105,7 @@ class JointSolver:
                  integrator=None, tol_residual=1e-8, tol_energy=1e-16, max_iter=25,
                  stall_iterations=0, min_dt=None, method="condensed", line_search=True, max_cache=6,
                  active_tol=1e-12, few_max=16, jacobian_reuse=True, C_lowrank=None,
-                 event_levels=3, coupled=None):
+                 event_levels=3, coupled=None, rayleigh=None):
         if method not in ("condensed", "full"):
             raise ValueError(f"JointSolver method = {method!r} is not allowed; allowed: "
                              "'condensed', 'full'")
@@ -142,7 +142,8 @@ class JointSolver:
         self.min_dt = float(min_dt) if min_dt is not None else self.dt / 2 ** 10
         self.method = method
         self.active_tol = float(active_tol)
-        self.discretisation = TimeDiscretisation(integrator, self.K, self.M, self.C, C_lowrank)
+        self.discretisation = TimeDiscretisation(integrator, self.K, self.M, self.C, C_lowrank,
+                                                 rayleigh=rayleigh)
         self.control = NewtonControl(tol_residual, tol_energy, max_iter, line_search)
         self.newton = CondensedNewton(self.joints, self.control, self.factorise, dt=self.dt,
                                       few_max=few_max, jacobian_reuse=jacobian_reuse,

@@ -8,6 +8,19 @@ inserted zero adds +-0, which changes no partial sum; the sum starts at +0 as sc
 Indices are unsigned (no negative-index wraparound test in the compiled loop: ~2.5x faster
 than int32 for the four products of a Koyna step, measured), 16-bit column indices and 32-bit
 row pointers while they fit (a further ~13 %). Used by the Newmark right-hand side (M, C) and the energy budget (K, M).
+
+The step's five products (``FusedPair.products5``, docs/solver.md §6) take two further layouts,
+both bitwise the same sums in the same order:
+
+* Rayleigh damping, C = a0 M + a1 K entry by entry (``rayleigh=(a0, a1)``, checked bit for bit
+  on the union pattern when built): C's values are formed in the loop, fl(fl(a0 m) + fl(a1 k)),
+  which is what scipy's ``a0 * M + a1 * K`` stored, so one value stream less is read
+  (``step_products5_rayleigh``);
+* rows with one column pattern (the reduced bulk's dense boundary blocks: 320 and 222 rows on
+  koyna_engineering) stored column by column as dense row-groups, each column's entries
+  summed into the group's rows at once (``block_products5``): every row is still summed
+  column after column from +0, so its sum is the CSR row's, and the loop over the group's rows
+  runs in SIMD lanes instead of one dependent sum per product.
 """
 from __future__ import annotations
 
@@ -15,7 +28,13 @@ import numpy as np
 import scipy.sparse as sp
 from numba import njit
 
-__all__ = ["FusedPair", "pair_products", "step_products5"]
+__all__ = ["FusedPair", "pair_products", "step_products5", "step_products5_rayleigh",
+           "block_products5", "row_groups", "BLOCK_MIN_ROWS"]
+
+# rows sharing one column pattern go to the row-group layout in groups of at least this many
+# rows, and the layout is used when such groups hold at least half the entries (the full
+# bulk's groups are a node's two DOFs: the CSR loop is as fast there)
+BLOCK_MIN_ROWS = 8
 
 
 def _canonical(A):
@@ -72,12 +91,145 @@ def step_products5(indptr, indices, Mx, Cx, Kx, u, v, x, y, Ku, Mv, Mxo, Cyo, Cv
         Cvo[i] = e
 
 
+@njit(cache=True)
+def step_products5_rayleigh(indptr, indices, Mx, Kx, a0, a1, u, v, x, y, Ku, Mv, Mxo, Cyo,
+                            Cvo):
+    """``step_products5`` with C = a0 M + a1 K formed entry by entry in the loop (the same
+    rounding as scipy's ``a0 * M + a1 * K``: bitwise the stored C, checked by ``FusedPair``)."""
+    for i in range(Ku.size):
+        a = 0.0
+        b = 0.0
+        c = 0.0
+        d = 0.0
+        e = 0.0
+        for jj in range(indptr[i], indptr[i + 1]):
+            j = indices[jj]
+            m = Mx[jj]
+            k = Kx[jj]
+            cc = a0 * m + a1 * k
+            a += k * u[j]
+            b += m * v[j]
+            c += m * x[j]
+            d += cc * y[j]
+            e += cc * v[j]
+        Ku[i] = a
+        Mv[i] = b
+        Mxo[i] = c
+        Cyo[i] = d
+        Cvo[i] = e
+
+
+@njit(cache=True)
+def block_products5(gptr, grows, cptr, gcols, vptr, BM, BK, BC, rayleigh, a0, a1, u, v, x, y,
+                    s0, s1, s2, s3, s4, Ku, Mv, Mxo, Cyo, Cvo):
+    """``step_products5`` on row groups (``row_groups``; every index array unsigned, as in the
+    CSR kernels: no wraparound test, which would keep the row loops out of SIMD): group g has
+    the rows grows[gptr[g]:gptr[g+1]] and the columns gcols[cptr[g]:cptr[g+1]], its values
+    column by column from vptr[g] in BM, BK (and BC unless ``rayleigh``: then C = a0 M + a1 K
+    entry by entry). s0..s4: scratch of the largest group's row count. Each row is summed
+    column after column from +0 (the CSR row's order); the loops over a group's rows are
+    independent sums and run in SIMD lanes."""
+    for g in range(gptr.size - 1):
+        r0 = gptr[g]
+        nr = gptr[g + 1] - r0
+        off = vptr[g]
+        c0 = cptr[g]
+        if nr == 1:                                  # a row alone: the CSR row loop
+            a = 0.0
+            b = 0.0
+            c = 0.0
+            d = 0.0
+            e = 0.0
+            for cc in range(c0, cptr[g + 1]):
+                j = gcols[cc]
+                o = off + (cc - c0)
+                m = BM[o]
+                k = BK[o]
+                w = a0 * m + a1 * k if rayleigh else BC[o]
+                a += k * u[j]
+                b += m * v[j]
+                c += m * x[j]
+                d += w * y[j]
+                e += w * v[j]
+            i = grows[r0]
+            Ku[i] = a
+            Mv[i] = b
+            Mxo[i] = c
+            Cyo[i] = d
+            Cvo[i] = e
+            continue
+        for r in range(nr):
+            s0[r] = 0.0
+            s1[r] = 0.0
+            s2[r] = 0.0
+            s3[r] = 0.0
+            s4[r] = 0.0
+        for cc in range(c0, cptr[g + 1]):
+            j = gcols[cc]
+            uj = u[j]
+            vj = v[j]
+            xj = x[j]
+            yj = y[j]
+            for r in range(nr):
+                s0[r] += BK[off + r] * uj
+            for r in range(nr):
+                m = BM[off + r]
+                s1[r] += m * vj
+                s2[r] += m * xj
+            if rayleigh:
+                for r in range(nr):
+                    w = a0 * BM[off + r] + a1 * BK[off + r]
+                    s3[r] += w * yj
+                    s4[r] += w * vj
+            else:
+                for r in range(nr):
+                    w = BC[off + r]
+                    s3[r] += w * yj
+                    s4[r] += w * vj
+            off += nr
+        for r in range(nr):
+            i = grows[r0 + r]
+            Ku[i] = s0[r]
+            Mv[i] = s1[r]
+            Mxo[i] = s2[r]
+            Cyo[i] = s3[r]
+            Cvo[i] = s4[r]
+
+
+def row_groups(indptr, indices, min_rows: int = BLOCK_MIN_ROWS):
+    """Rows of one column pattern as groups: (gptr, grows, cptr, gcols, take), the groups of
+    at least ``min_rows`` rows first, then every other row alone; ``take`` indexes the CSR
+    value arrays in the groups' layout (each group's values column by column)."""
+    indptr = np.asarray(indptr, dtype=np.int64)
+    pats = {}
+    for i in range(indptr.size - 1):
+        pats.setdefault(indices[indptr[i]:indptr[i + 1]].tobytes(), []).append(i)
+    big = [rows for rows in pats.values() if len(rows) >= min_rows]
+    single = sorted(i for rows in pats.values() if len(rows) < min_rows for i in rows)
+    groups = big + [[i] for i in single]
+    gptr = np.zeros(len(groups) + 1, np.int64)
+    cptr = np.zeros(len(groups) + 1, np.int64)
+    rows_all, cols_all, take = [], [], []
+    for g, rows in enumerate(groups):
+        r = np.asarray(rows, np.int64)
+        nc = int(indptr[r[0] + 1] - indptr[r[0]])
+        gptr[g + 1] = gptr[g] + r.size
+        cptr[g + 1] = cptr[g] + nc
+        rows_all.append(r)
+        cols_all.append(indices[indptr[r[0]]:indptr[r[0] + 1]].astype(np.int64))
+        take.append((indptr[r][None, :] + np.arange(nc)[:, None]).ravel())   # column-major
+    return (gptr, np.concatenate(rows_all), cptr, np.concatenate(cols_all),
+            np.concatenate(take))
+
+
 class FusedPair:
     """A and B (square, one shape; and C if given) on the union of their patterns: ``indptr``
     (uint32, or uint64), ``indices`` (uint16, or uint32), ``Ax``, ``Bx`` (``Cx``);
-    ``products(x, y)`` -> (A x, B y)."""
+    ``products(x, y)`` -> (A x, B y). With C: ``products5`` (the step's five products, A = M,
+    B = the damping, C = K); ``rayleigh=(a0, a1)``: B = a0 A + a1 C is checked bit for bit on
+    the pattern and, when it holds, B's values are formed in the loop (``self.rayleigh``)."""
 
-    def __init__(self, A, B, C=None):
+    def __init__(self, A, B, C=None, rayleigh=None):
         mats = [_canonical(X) for X in ((A, B) if C is None else (A, B, C))]
         if any(X.shape != mats[0].shape for X in mats) or mats[0].shape[0] != mats[0].shape[1]:
             raise ValueError(f"matrices of shapes {[X.shape for X in mats]}: square matrices "
@@ -100,6 +252,44 @@ class FusedPair:
             vals.append(x)
         self.Ax, self.Bx = vals[0], vals[1]
         self.Cx = vals[2] if C is not None else None
+        self.rayleigh = None
+        if C is not None and rayleigh is not None:
+            a0, a1 = float(rayleigh[0]), float(rayleigh[1])
+            if np.array_equal(a0 * self.Ax + a1 * self.Cx, self.Bx):
+                self.rayleigh = (a0, a1)
+        self.blocks = None
+        if C is not None:
+            gptr, grows, cptr, gcols, take = row_groups(self.indptr, self.indices)
+            sizes = np.diff(gptr)
+            in_big = int(np.sum((np.diff(cptr) * sizes)[sizes >= BLOCK_MIN_ROWS]))
+            if 2 * in_big >= keys.size:
+                ray = self.rayleigh is not None
+                vptr = np.concatenate(([0], np.cumsum(np.diff(cptr) * sizes)))
+                ri = np.uint16 if n <= u16 else np.uint32
+                self.blocks = (gptr.astype(np.uint64), grows.astype(ri),
+                               cptr.astype(np.uint64), gcols.astype(ri),
+                               vptr.astype(np.uint64), self.Ax[take], self.Cx[take],
+                               np.zeros(1) if ray else self.Bx[take])
+                self._scratch = np.empty((5, int(sizes.max())))
+
+    def products5(self, u, v, x, y, Ku, Mv, Mxo, Cyo, Cvo):
+        """Ku = C u, Mv = A v, Mxo = A x, Cyo = B y, Cvo = B v (``step_products5``: K u, M v,
+        M x, C y, C v for ``FusedPair(M, C, K)``), bitwise the CSR row sums, in the fastest
+        layout this pair has (module docstring)."""
+        ray = self.rayleigh
+        a0, a1 = ray if ray is not None else (0.0, 0.0)
+        if self.blocks is not None:
+            gptr, grows, cptr, gcols, vptr, BM, BK, BC = self.blocks
+            s = self._scratch
+            block_products5(gptr, grows, cptr, gcols, vptr, BM, BK, BC, ray is not None, a0,
+                            a1, u, v, x, y, s[0], s[1], s[2], s[3], s[4], Ku, Mv, Mxo, Cyo,
+                            Cvo)
+        elif ray is not None:
+            step_products5_rayleigh(self.indptr, self.indices, self.Ax, self.Cx, a0, a1, u, v,
+                                    x, y, Ku, Mv, Mxo, Cyo, Cvo)
+        else:
+            step_products5(self.indptr, self.indices, self.Ax, self.Bx, self.Cx, u, v, x, y,
+                           Ku, Mv, Mxo, Cyo, Cvo)
 
     def products(self, x, y):
         """(A x, B y) as new arrays (x, y contiguous float64 (n,))."""
