@@ -60,6 +60,8 @@ class CollapseRule(Part):
         self.joints = joints
         self.kinematics = kinematics
         self.names = list(joints.names)
+        self._slip_keys = [f"{n}_slip" for n in self.names]         # the measures' keys
+        self._rot_keys = [f"{n}_rotation" for n in self.names]
         self.max_slip, self.max_rotation = float(max_slip), float(max_rotation)
         blocks = [r for r in model.regions if r != "rock"]
         xdof = np.abs(model.r_x) > 0.5
@@ -70,6 +72,9 @@ class CollapseRule(Part):
             for b in blocks[k:]:
                 above |= upper_columns(model, b)
             self.masks.append((above & xdof, above & ydof))
+        # the masks' DOFs as index arrays (``static_fs``: the same entries gathered in the
+        # same order as the boolean masks, so the same sums, without the masks' scans)
+        self.dofs = [(np.flatnonzero(mx), np.flatnonzero(my)) for mx, my in self.masks]
         self._prev = None
         # each joint's length (the sum of its integration weights): sliding off
         self.lengths = [float(np.sum(joints.w[sl])) for sl in joints.slices]
@@ -78,7 +83,7 @@ class CollapseRule(Part):
         """FS_static of every joint for the static load vector ``f_static`` (with the current
         uplift) and the step's ``JointScan`` (bonded points and their cohesive strength)."""
         out = []
-        for i, (mx, my) in enumerate(self.masks):
+        for i, (mx, my) in enumerate(self.dofs):
             T = float(np.sum(f_static[mx]))
             N = -float(np.sum(f_static[my]))
             law = joints.laws[i]
@@ -94,8 +99,8 @@ class CollapseRule(Part):
         measures: the step's joint measures ("<joint>_slip", "<joint>_rotation");
         static_loads: a function giving the static loads now (called only when a cracked joint
         slides)."""
-        slip = np.array([measures[f"{n}_slip"] for n in self.names])
-        rot = np.array([measures[f"{n}_rotation"] for n in self.names])
+        slip = np.array([measures[k] for k in self._slip_keys])
+        rot = np.array([measures[k] for k in self._rot_keys])
         prev, self._prev = self._prev, slip
         kin = "small-rotation" if self.kinematics == "small" else "finite-rotation"
         for i, n in enumerate(self.names):

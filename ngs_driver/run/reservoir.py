@@ -15,6 +15,7 @@ import numpy as np
 
 from ..fe.acoustic import PressureProbe, face_chain
 from ..solve.fluid import FluidStepper, GroundPressureLoad
+from ..solve.kernels import mv
 from .parts import Part
 
 __all__ = ["ReservoirRun", "FRACTIONS"]
@@ -42,6 +43,7 @@ class ReservoirRun(Part):
         self.ys = [f * self.level for f in FRACTIONS]
         for y in self.ys:
             self.rows[f"p_y{y:.2f}"] = []
+        self._cols = [self.rows[f"p_y{y:.2f}"] for y in self.ys]     # the stations' lists
         # absorbing rock boundaries (total): the run is in total displacements (the record
         # enters as free-field forces), so the face's own motion is already in u'' and only
         # the bottom / a rigid far end are driven by a_g
@@ -75,6 +77,7 @@ class ReservoirRun(Part):
     def restore(self, d):
         for key in self.rows:
             self.rows[key] = list(d[f"rows_{key}"])
+        self._cols = [self.rows[f"p_y{y:.2f}"] for y in self.ys]
 
     def ground(self, t):
         """Ground acceleration at time t (linear between the record samples, as the loads)."""
@@ -94,13 +97,13 @@ class ReservoirRun(Part):
     def sample(self, k, t):
         """After step k (time t): the face pressures and the force."""
         s = self.solver
-        agx, agy = self.ground(s.time)
         self.rows["t"].append(float(t))
         p = self.pressure()
         if p is not None:
             fx, fy = self.ac.face_force(p)
             vals = self._station_values(p)
         else:                                   # Westergaard: p = -m(y) a_n,total on the face
+            agx, agy = self.ground(s.time)
             m = self.model
             acc = s.a if self.total else s.a + m.r_x * agx + m.r_y * agy
             f = -(self.res.added_mass @ acc)
@@ -110,8 +113,8 @@ class ReservoirRun(Part):
                     for y, ax_ in zip(self.ys, self._face_ax(acc))]
         self.rows["Fx"].append(fx)
         self.rows["Fy"].append(fy)
-        for y, v in zip(self.ys, vals):
-            self.rows[f"p_y{y:.2f}"].append(float(v))
+        for col, v in zip(self._cols, vals):
+            col.append(float(v))
 
     def _station_values(self, p):
         if self._probe is None:
@@ -119,7 +122,8 @@ class ReservoirRun(Part):
             # the dam's element on the face itself, where the water field is not defined)
             pts = [(x - 1e-3, max(y, 1e-3)) for x, y in self._pts]
             self._probe = PressureProbe(self.ac.W, pts)
-        return list(self._probe(p))
+        # bitwise the probe's E @ real(p) (stored order), without scipy's per-call dispatch
+        return list(mv(self._probe.E, np.ascontiguousarray(np.real(p), dtype=np.float64)))
 
     def _face_ax(self, acc):
         """x-acceleration of the dam at the face stations (elevations self.ys)."""

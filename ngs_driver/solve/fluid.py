@@ -28,6 +28,7 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spl
 
 from .kernels import fluid_bp, fluid_commit, fluid_drift, fluid_face, mv
+from .products import FusedPair
 from .sparse import SparseFactor
 
 
@@ -72,6 +73,8 @@ class FluidStepper:
         self._Gt, self._Cft, self._Ht, self._QfTt, self._Qft = (
             (A.indptr, A.indices, A.data) for A in (self._G, self._Cf, self._H, self._QfT,
                                                     self._Qf))
+        # H pi and G p of the energy terms in one compiled pass (bitwise the two products)
+        self._HG = FusedPair(self._H, self._G)
         self._sd = None        # (h, time, p, pd, pdd, a, value) of the last ``_scheme_drift``
         self._cache = {}
         self._bp = None
@@ -298,9 +301,10 @@ class FluidStepper:
         end, absorbed at the bottom (alpha < 1), and the work of the ground on the water
         (an input, like W_ext). See ``_book``."""
         rho = self.ac.rho
+        Hpi, Gp = self._HG.products(self.pi, self.p)
         return {"W_water": float(self._acc[2]),
-                "E_water_kin": 0.5 * float(self.pi @ mv(self._H, self.pi)) / rho,
-                "E_water_pot": 0.5 * float(self.p @ mv(self._G, self.p)) / rho,
+                "E_water_kin": 0.5 * float(self.pi @ Hpi) / rho,
+                "E_water_pot": 0.5 * float(self.p @ Gp) / rho,
                 "E_water_radiated": float(self._acc[0]),
                 "E_water_absorbed": float(self._acc[1]),
                 "E_water_alg": float(self._alg)}
