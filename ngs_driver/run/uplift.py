@@ -19,6 +19,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..setup.uplift import pressure_profile
+from ..solve.kernels import mv
 from .checkpoint import SolverPart
 from .joints import debonded_measures
 from .parts import Part
@@ -70,7 +71,7 @@ class UpliftField:
         """B^T W (p e_N): the free-DOF load of the pressure p."""
         gv = np.zeros(2 * self.w.size)
         gv[0::2] = self.w * p
-        return self.BT @ gv
+        return mv(self.BT, gv)          # bitwise scipy's BT @ gv, without its dispatch
 
     def set_operator(self, B):
         """The gap operator of a joint paired anew (finite sliding, run/pairing.py): the
