@@ -21,6 +21,9 @@ Newton's attempt, the factor's halves, the commit, the energy budget with its pr
 run's measures); what no part covers is the run's own Python (``rest``).
 ``--profile FILE``: the time loop (not set-up or static) under cProfile, stats to FILE.
 ``--elastic``: the same command on the interface's elastic branch (record x 0.001, no damage).
+``--scene NAME --set KEY=VALUE ...``: another scene (its own keys and ``time.duration``; the
+Koyna 0.2x f 0.8 keys only for koyna) or further overrides, e.g. ``--scene koyna_engineering
+--set solver.bulk=reduced --parts`` (BENCHMARKS.md "Step products and bookkeeping").
 Prints one JSON line (times in ms, the machine's load average at the start and the end).
 
 ``--compare OLD --repeat N``: alternates N times the old checkout OLD and this one (each in a
@@ -56,7 +59,12 @@ WARM = 20            # first steps left out (numba compiles, the step's factoris
 REPS = 400           # forward + backward solves timed
 
 
-def sets(duration: float, elastic: bool) -> list:
+def sets(duration: float, elastic: bool, scene: str = "koyna", extra=()) -> list:
+    """The overrides of the measured command (module docstring)."""
+    if scene != "koyna":
+        return [f"time.duration={duration}", *extra]
+    if extra:
+        return sets(duration, elastic) + list(extra)
     if elastic:
         return ["ground_motion.scale=0.001", "interface.friction=0.8", "interface.damage=false",
                 f"time.duration={duration}"]
@@ -124,11 +132,11 @@ def wrap_parts(a, parts: dict) -> list:
     return undo
 
 
-def prepared_koyna(overrides: list, prefix: str):
-    """The koyna scene with ``overrides`` prepared (no figures) and its static state solved, its
-    solver's ``step`` timed into the returned list [ms] (the instance's step: the class's
-    method, timed). Also used by verification/bench_step.py."""
-    sc = load_scene("koyna", overrides)
+def prepared_koyna(overrides: list, prefix: str, scene: str = "koyna"):
+    """The koyna scene (or ``scene``) with ``overrides`` prepared (no figures) and its static
+    state solved, its solver's ``step`` timed into the returned list [ms] (the instance's step:
+    the class's method, timed). Also used by verification/bench_step.py."""
+    sc = load_scene(scene, overrides)
     out = pathlib.Path(tempfile.mkdtemp(prefix=prefix))
     a = prepare(sc, out, outputs=RunOutputs(plots=False), progress=False,
                 log=lambda *x, **k: None)
@@ -147,9 +155,9 @@ def prepared_koyna(overrides: list, prefix: str):
 
 
 def measure(duration: float, elastic: bool = False, profile: str | None = None,
-            parts: bool = False) -> dict:
+            parts: bool = False, scene: str = "koyna", extra=()) -> dict:
     t_all = time.perf_counter()
-    a, solver_ms = prepared_koyna(sets(duration, elastic), "step_cost_")
+    a, solver_ms = prepared_koyna(sets(duration, elastic, scene, extra), "step_cost_", scene)
     s = a.solver
     run_ms = []
     pt = {}
@@ -184,7 +192,8 @@ def measure(duration: float, elastic: bool = False, profile: str | None = None,
     crest = float(np.abs(s.u).max())
     a.release()
     run = np.asarray(run_ms[WARM:])
-    return {"code": str(pathlib.Path(ngs_driver.__file__).parent.parent), "elastic": elastic,
+    return {"code": str(pathlib.Path(ngs_driver.__file__).parent.parent), "scene": scene,
+            "overrides": sets(duration, elastic, scene, extra), "elastic": elastic,
             "duration": duration, "steps": len(run_ms), "newton_iterations": int(its),
             "loop_s": t_loop, "prepare_static_loop_s": time.perf_counter() - t_all,
             "run_step_mean_ms": float(run.mean()), "run_step_median_ms": float(np.median(run)),
@@ -246,11 +255,13 @@ def main(argv=None):
     p.add_argument("--parts", action="store_true")
     p.add_argument("--compare", default=None)
     p.add_argument("--repeat", type=int, default=3)
+    p.add_argument("--scene", default="koyna")
+    p.add_argument("--set", action="append", default=[], dest="extra", metavar="KEY=VALUE")
     args = p.parse_args(argv)
     if args.compare:
         return compare(args.compare, args.repeat, args.duration)
     load0 = os.getloadavg()[0]
-    r = measure(args.duration, args.elastic, args.profile, args.parts)
+    r = measure(args.duration, args.elastic, args.profile, args.parts, args.scene, args.extra)
     r["load_start"], r["load_end"] = load0, os.getloadavg()[0]
     print(json.dumps(r))
     return r
