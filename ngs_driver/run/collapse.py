@@ -60,8 +60,6 @@ class CollapseRule(Part):
         self.joints = joints
         self.kinematics = kinematics
         self.names = list(joints.names)
-        self._slip_keys = [f"{n}_slip" for n in self.names]         # the measures' keys
-        self._rot_keys = [f"{n}_rotation" for n in self.names]
         self.max_slip, self.max_rotation = float(max_slip), float(max_rotation)
         blocks = [r for r in model.regions if r != "rock"]
         xdof = np.abs(model.r_x) > 0.5
@@ -99,8 +97,8 @@ class CollapseRule(Part):
         measures: the step's joint measures ("<joint>_slip", "<joint>_rotation");
         static_loads: a function giving the static loads now (called only when a cracked joint
         slides)."""
-        slip = np.array([measures[k] for k in self._slip_keys])
-        rot = np.array([measures[k] for k in self._rot_keys])
+        slip = np.array([measures[f"{n}_slip"] for n in self.names])
+        rot = np.array([measures[f"{n}_rotation"] for n in self.names])
         prev, self._prev = self._prev, slip
         kin = "small-rotation" if self.kinematics == "small" else "finite-rotation"
         for i, n in enumerate(self.names):
