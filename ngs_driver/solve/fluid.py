@@ -32,6 +32,18 @@ from .products import FusedPair
 from .sparse import SparseFactor
 
 
+def _unsigned(A):
+    """(indptr, indices, data) of the CSR matrix A with unsigned indices (uint32 row pointers,
+    uint16 columns while they fit): numba tests a signed index for Python's negative
+    wraparound in the row loops, an unsigned one not; the sums and their order are the same
+    (bitwise), ``fluid_bp`` and ``fluid_drift`` ~1.8x faster on Koyna's water (0.018 against
+    0.010 ms each, measured)."""
+    small = A.shape[1] <= np.iinfo(np.uint16).max
+    wide = A.nnz > np.iinfo(np.uint32).max
+    return (A.indptr.astype(np.uint64 if wide else np.uint32),
+            A.indices.astype(np.uint16 if small else np.uint32), A.data)
+
+
 def _canonical_csr(A):
     """A as a CSR matrix with sorted, summed indices: ``mv`` on it sums each row in the order
     of scipy's ``A @ x`` (CSR rows in stored order; a CSC matrix's columns ascending), so the
@@ -69,10 +81,10 @@ class FluidStepper:
         self._G, self._Cf, self._H = (_canonical_csr(X) for X in (W.G, W.Cf, W.H))
         self._Qf = _canonical_csr(self.Qf)
         self._QfT = _canonical_csr(self.Qf.T)
-        # their (indptr, indices, data) for the compiled step (solve/kernels.py ``fluid_*``)
+        # their (indptr, indices, data) for the compiled step (solve/kernels.py ``fluid_*``),
+        # the indices unsigned (``_unsigned``)
         self._Gt, self._Cft, self._Ht, self._QfTt, self._Qft = (
-            (A.indptr, A.indices, A.data) for A in (self._G, self._Cf, self._H, self._QfT,
-                                                    self._Qf))
+            _unsigned(A) for A in (self._G, self._Cf, self._H, self._QfT, self._Qf))
         # H pi and G p of the energy terms in one compiled pass (bitwise the two products)
         self._HG = FusedPair(self._H, self._G)
         self._sd = None        # (h, time, p, pd, pdd, a, value) of the last ``_scheme_drift``
