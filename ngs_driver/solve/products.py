@@ -199,25 +199,46 @@ def block_products5(gptr, grows, cptr, gcols, vptr, BM, BK, BC, rayleigh, a0, a1
 def row_groups(indptr, indices, min_rows: int = BLOCK_MIN_ROWS):
     """Rows of one column pattern as groups: (gptr, grows, cptr, gcols, take), the groups of
     at least ``min_rows`` rows first, then every other row alone; ``take`` indexes the CSR
-    value arrays in the groups' layout (each group's values column by column)."""
+    value arrays in the groups' layout (each group's values column by column). Candidate
+    groups come from a vectorised key of each row (length, first column, sums of the columns
+    and of their squares); only those of ``min_rows`` rows or more are compared entry by entry
+    (0.05 s for 100 000 rows, where a dictionary of every row's pattern took 1 s)."""
     indptr = np.asarray(indptr, dtype=np.int64)
-    pats = {}
-    for i in range(indptr.size - 1):
-        pats.setdefault(indices[indptr[i]:indptr[i + 1]].tobytes(), []).append(i)
-    big = [rows for rows in pats.values() if len(rows) >= min_rows]
-    single = sorted(i for rows in pats.values() if len(rows) < min_rows for i in rows)
-    groups = big + [[i] for i in single]
-    gptr = np.zeros(len(groups) + 1, np.int64)
-    cptr = np.zeros(len(groups) + 1, np.int64)
-    rows_all, cols_all, take = [], [], []
-    for g, rows in enumerate(groups):
-        r = np.asarray(rows, np.int64)
-        nc = int(indptr[r[0] + 1] - indptr[r[0]])
-        gptr[g + 1] = gptr[g] + r.size
-        cptr[g + 1] = cptr[g] + nc
-        rows_all.append(r)
-        cols_all.append(indices[indptr[r[0]]:indptr[r[0] + 1]].astype(np.int64))
-        take.append((indptr[r][None, :] + np.arange(nc)[:, None]).ravel())   # column-major
+    n = indptr.size - 1
+    lens = np.diff(indptr)
+    ix = np.asarray(indices, dtype=np.int64)
+    nz = lens > 0
+    starts = indptr[:-1][nz]
+    key = np.zeros((n, 4), np.int64)
+    key[:, 0] = lens
+    if ix.size:
+        key[nz, 1] = ix[starts]
+        key[nz, 2] = np.add.reduceat(ix, starts)
+        key[nz, 3] = np.add.reduceat(ix * ix, starts)
+    _, inv, counts = np.unique(key, axis=0, return_inverse=True, return_counts=True)
+    inv = inv.ravel()
+    big = []
+    for k in np.flatnonzero(counts >= min_rows):
+        pats = {}
+        for i in np.flatnonzero(inv == k):
+            pats.setdefault(ix[indptr[i]:indptr[i + 1]].tobytes(), []).append(int(i))
+        big.extend(rows for rows in pats.values() if len(rows) >= min_rows)
+    big.sort(key=lambda rows: rows[0])
+    grouped = np.zeros(n, bool)
+    for rows in big:
+        grouped[rows] = True
+    single = np.flatnonzero(~grouped)
+    sizes = [len(rows) for rows in big] + [1] * single.size
+    ncols = [int(lens[rows[0]]) for rows in big] + list(lens[single])
+    gptr = np.concatenate(([0], np.cumsum(sizes, dtype=np.int64)))
+    cptr = np.concatenate(([0], np.cumsum(ncols, dtype=np.int64)))
+    rows_all = [np.asarray(rows, np.int64) for rows in big] + [single]
+    cols_all = [ix[indptr[rows[0]]:indptr[rows[0] + 1]] for rows in big]
+    take = [(indptr[np.asarray(rows)][None, :] + np.arange(lens[rows[0]])[:, None]).ravel()
+            for rows in big]                                        # column-major
+    alone = np.flatnonzero(~grouped[np.repeat(np.arange(n), lens)])  # the single rows' entries
+    cols_all.append(ix[alone])
+    take.append(alone)
     return (gptr, np.concatenate(rows_all), cptr, np.concatenate(cols_all),
             np.concatenate(take))
 
