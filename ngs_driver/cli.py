@@ -33,6 +33,8 @@ import pathlib
 import subprocess
 import sys
 
+from .apps.heap import fix_heap_thresholds  # noqa: E402  (ctypes only: no NGSolve, no numpy)
+
 ROOT = pathlib.Path(__file__).resolve().parent.parent
 
 
@@ -380,6 +382,10 @@ def cmd_bench(a) -> int:
 
 def main(argv=None) -> int:
     a = build_parser().parse_args(argv)
+    if argv is None:
+        # the command's process: fixed heap thresholds keep the freed factors of re-pairings
+        # and sub-step sizes from staying resident (apps/heap.py; make run's peak)
+        fix_heap_thresholds()
     rc = {"run": cmd_run, "run-paper": cmd_run_paper, "compare": cmd_compare,
           "modal": cmd_modal, "verify": cmd_verify, "bench": cmd_bench,
           "ida": _cmd_ida}[a.cmd](a)

