@@ -62,6 +62,7 @@ class StepEntry:
     Yinv: np.ndarray | None = None       # Y^-1 (symmetric): the Newton system is Y^-1 + P
     Z: dict = field(default_factory=dict)  # point -> (ndof, 2) A^-1 B_p^T (few active points)
     jac_lu: tuple | None = None          # (LU^T, pivots, P values) of the last Y^-1 + P factorised
+    jac_buf: np.ndarray | None = None    # (r, r) where that LU^T is formed (jacobian_solve)
     base: bool = True                    # the nominal step's entry (never evicted)
 
 
@@ -92,7 +93,7 @@ class CondensedNewton:
         self.steps: OrderedDict = OrderedDict()     # step size -> StepEntry
         self.static_entry = None
         self._ptp = self._ptp_of = self._ptp_map = None   # G^T Dw G pattern (ptp_pattern)
-        self._ptp_flat = None
+        self._ptp_flatT = None
         self._gmres_wk = None
 
     # ------------------------------------------------------------------ per step size
@@ -312,14 +313,26 @@ class CondensedNewton:
                 if its > GMRES_REFRESH:                   # the next solve factorises
                     e.jac_lu = None
         if not ok:
-            H = e.Yinv.copy()
-            H.ravel()[self._ptp_flat] += P.data
-            lu, piv, info = sla.lapack.dgetrf(H, overwrite_a=True)
+            # H = Y^-1 + P is formed in Fortran order in the entry's own buffer and factorised
+            # there: Y^-1 is symmetric (bitwise), so a C-order copy of it read as its transpose
+            # is Y^-1 again, and P's values go to their transposed positions. getrf then works
+            # in place and its LU read in C order is the LU^T the kernels take: no copy, no
+            # transposition (a C-order H cost two 900 kB copies, one of them transposing:
+            # about as much as the factorisation of r = 336 itself, measured) and the same
+            # numbers bit for bit
+            buf = e.jac_buf
+            if buf is None or buf.shape != e.Yinv.shape:
+                buf = e.jac_buf = np.empty_like(e.Yinv)
+            e.jac_lu = None                               # buf holds the kept LU: dropped
+            np.copyto(buf, e.Yinv)
+            buf.ravel()[self._ptp_flatT] += P.data
+            lu, piv, info = sla.lapack.dgetrf(buf.T, overwrite_a=True)
             if info != 0:
                 raise np.linalg.LinAlgError(f"interface Jacobian singular (dgetrf info {info})")
             self.stats["jacobian_factorisations"] += 1
-            e.jac_lu = (np.ascontiguousarray(lu.T), piv.astype(np.int32), P.data.copy())
-            lu_solve_into(e.jac_lu[0], e.jac_lu[1], v, z)
+            luT = lu.T                          # buf itself (getrf returns Fortran order)
+            e.jac_lu = (luT, piv.astype(np.int32), P.data.copy())
+            lu_solve_into(luT, e.jac_lu[1], v, z)
         x = b - mv(J0.G, z)
         if not np.all(np.isfinite(x)):
             raise np.linalg.LinAlgError("interface Jacobian: non-finite solution")
@@ -352,5 +365,6 @@ class CondensedNewton:
             self._ptp, self._ptp_of = P, G
             # unsigned (no negative-index test in ``jac_setup``'s loops)
             self._ptp_map = tuple(x.astype(np.uint32) for x in (PT, A, Bk, Q1, Q2, pos))
-            self._ptp_flat = prow.astype(np.int64) * r + P.indices   # positions in r x r
+            # positions of P's values in H^T (C order) = H (Fortran order)
+            self._ptp_flatT = P.indices.astype(np.int64) * r + prow
         return self._ptp
