@@ -36,6 +36,7 @@ import scipy.sparse as sp
 
 from .interface import JointOperator, dof_index
 from .kernels import jac_setup, mv, ptp_pairs
+from .gap_kernels import active_blocks, gap_phi, gap_residual, push_back, scatter_add
 from .krylov import gmres_lu, lu_solve_into
 from .newton import Attempt, DirectionFailed, NewtonControl, failed
 
@@ -95,6 +96,7 @@ class CondensedNewton:
         self._ptp = self._ptp_of = self._ptp_map = None   # G^T Dw G pattern (ptp_pattern)
         self._ptp_flatT = None
         self._gmres_wk = None
+        self._solve_wk = None
 
     # ------------------------------------------------------------------ per step size
     def clear(self):
@@ -200,18 +202,30 @@ class CondensedNewton:
         # of a sliding joint would make any residual look small
         gscale = max(np.linalg.norm(g_lin), np.linalg.norm(g0), J0.gref)
 
+        G, GT = J0.G, J0.GT
+        r = GT.shape[0]
+        y = np.empty(r)
+        wphi_buf = np.empty(n2)
+        newly = np.empty(J0.npts, np.bool_)
+
         def evaluate(g, cur):
+            # phi, the newly active points, W phi on the active points and G^T W phi in one
+            # compiled pass (``gap_phi``), Y (.) by BLAS, then R = g - g_lin + c G (.)
+            # (``gap_residual``): the numbers of ``Smul`` and ``wphi`` in the same order
             act, ad = (cur[5], cur[6]) if cur is not None else (act0, ad0)
             t, T, new = law.evaluate(g.reshape(-1, 2), state, dt=law_dt)
-            phi = t.ravel() - k0v * g
-            newly = ~act & J0.phi_mask(phi, g)
-            if newly.any():
+            phi = np.empty(n2)
+            nnew, anyact = gap_phi(t.ravel(), g, k0v, wd, J0.active_tol, act, GT.indptr,
+                                   GT.indices, GT.data, phi, newly, wphi_buf, y)
+            if nnew:
                 act = act | newly
                 self.ensure_Y(e)
                 ad = dof_index(np.flatnonzero(act))
-            R = g - g_lin
-            if ad.size:
-                R += c * Smul(ad, wphi(ad, phi))
+            if anyact:
+                R = np.empty(n2)
+                gap_residual(g, g_lin, c, G.indptr, G.indices, G.data, e.Y @ y, R)
+            else:
+                R = g - g_lin
             return (t, T, new, phi, R, act, ad), np.linalg.norm(R) / gscale
 
         def direction(g, cur):
@@ -219,8 +233,8 @@ class CondensedNewton:
             # active points (0 elsewhere), through the r x r system of the relative interface
             # DOFs (``jacobian_solve``)
             T, R, act, ad = cur[1], cur[4], cur[5], cur[6]
-            E = T - J0.k0blk
-            E[~act] = 0.0
+            E = np.empty_like(T)
+            active_blocks(T, J0.k0blk, act, E)          # T - K0 at active points, 0 elsewhere
             try:
                 dg = self.jacobian_solve(e, E, -R, c, ad)
             except (np.linalg.LinAlgError, ValueError) as err:
@@ -294,12 +308,11 @@ class CondensedNewton:
         # Dw = E c w (npts, 2, 2); P = G^T Dw G sparse (r x r, banded; its values scattered by
         # a map built once); v = G^T Dw b: one compiled call (``jac_setup``)
         P = self.ptp_pattern()
-        GT = J0.GT
+        GT, G = J0.GT, J0.G
         r = GT.shape[0]
-        v = np.empty(r)
-        jac_setup(E, c * J0.w, b, *self._ptp_map, J0.G.data, GT.indptr, GT.indices,
-                  GT.data, P.data, np.empty(2 * J0.npts), v)
-        z = np.empty(r)
+        v, z, tmp = self.solve_work(r, 2 * J0.npts)
+        jac_setup(E, c * J0.w, b, *self._ptp_map, G.data, GT.indptr, GT.indices,
+                  GT.data, P.data, tmp, v)
         ok = False
         if self.jacobian_reuse and e.jac_lu is not None:
             luT, piv, p0 = e.jac_lu
@@ -325,7 +338,7 @@ class CondensedNewton:
                 buf = e.jac_buf = np.empty_like(e.Yinv)
             e.jac_lu = None                               # buf holds the kept LU: dropped
             np.copyto(buf, e.Yinv)
-            buf.ravel()[self._ptp_flatT] += P.data
+            scatter_add(buf.ravel(), self._ptp_flatT, P.data)
             lu, piv, info = sla.lapack.dgetrf(buf.T, overwrite_a=True)
             if info != 0:
                 raise np.linalg.LinAlgError(f"interface Jacobian singular (dgetrf info {info})")
@@ -333,10 +346,18 @@ class CondensedNewton:
             luT = lu.T                          # buf itself (getrf returns Fortran order)
             e.jac_lu = (luT, piv.astype(np.int32), P.data.copy())
             lu_solve_into(luT, e.jac_lu[1], v, z)
-        x = b - mv(J0.G, z)
-        if not np.all(np.isfinite(x)):
+        x = np.empty_like(b)
+        if not push_back(b, G.indptr, G.indices, G.data, z, x):     # x = b - G z
             raise np.linalg.LinAlgError("interface Jacobian: non-finite solution")
         return x
+
+    def solve_work(self, r, n2):
+        """Work vectors of ``jacobian_solve`` (v, z of size r; G^T's operand of size n2),
+        allocated once: each is consumed within the call."""
+        wk = self._solve_wk
+        if wk is None or wk[0].shape[0] != r or wk[2].shape[0] != n2:
+            wk = self._solve_wk = (np.empty(r), np.empty(r), np.empty(n2))
+        return wk
 
     def gmres_work(self, r):
         """GMRES work arrays for an r x r system (allocated once; the kernel only writes)."""
