@@ -330,9 +330,9 @@ class CondensedNewton:
             # there: Y^-1 is symmetric (bitwise), so a C-order copy of it read as its transpose
             # is Y^-1 again, and P's values go to their transposed positions. getrf then works
             # in place and its LU read in C order is the LU^T the kernels take: no copy, no
-            # transposition (a C-order H cost two 900 kB copies, one of them transposing:
-            # about as much as the factorisation of r = 336 itself, measured) and the same
-            # numbers bit for bit
+            # transposition (a C-order H went through f2py's transposing copy to Fortran
+            # order: r = 336 alone, 1.4 against 0.6 ms a factorisation; in a run the gain is
+            # within the host's noise, BENCHMARKS.md) and the same numbers bit for bit
             buf = e.jac_buf
             if buf is None or buf.shape != e.Yinv.shape:
                 buf = e.jac_buf = np.empty_like(e.Yinv)
