@@ -36,6 +36,7 @@ import scipy.sparse as sp
 
 from .interface import JointOperator, dof_index
 from .kernels import jac_setup, mv, ptp_pairs
+from .gap_kernels import active_blocks, gap_phi, gap_residual, push_back, scatter_add
 from .krylov import gmres_lu, lu_solve_into
 from .newton import Attempt, DirectionFailed, NewtonControl, failed
 
@@ -62,6 +63,7 @@ class StepEntry:
     Yinv: np.ndarray | None = None       # Y^-1 (symmetric): the Newton system is Y^-1 + P
     Z: dict = field(default_factory=dict)  # point -> (ndof, 2) A^-1 B_p^T (few active points)
     jac_lu: tuple | None = None          # (LU^T, pivots, P values) of the last Y^-1 + P factorised
+    jac_buf: np.ndarray | None = None    # (r, r) where that LU^T is formed (jacobian_solve)
     base: bool = True                    # the nominal step's entry (never evicted)
 
 
@@ -92,8 +94,9 @@ class CondensedNewton:
         self.steps: OrderedDict = OrderedDict()     # step size -> StepEntry
         self.static_entry = None
         self._ptp = self._ptp_of = self._ptp_map = None   # G^T Dw G pattern (ptp_pattern)
-        self._ptp_flat = None
+        self._ptp_flatT = None
         self._gmres_wk = None
+        self._solve_wk = None
 
     # ------------------------------------------------------------------ per step size
     def clear(self):
@@ -199,18 +202,30 @@ class CondensedNewton:
         # of a sliding joint would make any residual look small
         gscale = max(np.linalg.norm(g_lin), np.linalg.norm(g0), J0.gref)
 
+        G, GT = J0.G, J0.GT
+        r = GT.shape[0]
+        y = np.empty(r)
+        wphi_buf = np.empty(n2)
+        newly = np.empty(J0.npts, np.bool_)
+
         def evaluate(g, cur):
+            # phi, the newly active points, W phi on the active points and G^T W phi in one
+            # compiled pass (``gap_phi``), Y (.) by BLAS, then R = g - g_lin + c G (.)
+            # (``gap_residual``): the numbers of ``Smul`` and ``wphi`` in the same order
             act, ad = (cur[5], cur[6]) if cur is not None else (act0, ad0)
             t, T, new = law.evaluate(g.reshape(-1, 2), state, dt=law_dt)
-            phi = t.ravel() - k0v * g
-            newly = ~act & J0.phi_mask(phi, g)
-            if newly.any():
+            phi = np.empty(n2)
+            nnew, anyact = gap_phi(t.ravel(), g, k0v, wd, J0.active_tol, act, GT.indptr,
+                                   GT.indices, GT.data, phi, newly, wphi_buf, y)
+            if nnew:
                 act = act | newly
                 self.ensure_Y(e)
                 ad = dof_index(np.flatnonzero(act))
-            R = g - g_lin
-            if ad.size:
-                R += c * Smul(ad, wphi(ad, phi))
+            if anyact:
+                R = np.empty(n2)
+                gap_residual(g, g_lin, c, G.indptr, G.indices, G.data, e.Y @ y, R)
+            else:
+                R = g - g_lin
             return (t, T, new, phi, R, act, ad), np.linalg.norm(R) / gscale
 
         def direction(g, cur):
@@ -218,8 +233,8 @@ class CondensedNewton:
             # active points (0 elsewhere), through the r x r system of the relative interface
             # DOFs (``jacobian_solve``)
             T, R, act, ad = cur[1], cur[4], cur[5], cur[6]
-            E = T - J0.k0blk
-            E[~act] = 0.0
+            E = np.empty_like(T)
+            active_blocks(T, J0.k0blk, act, E)          # T - K0 at active points, 0 elsewhere
             try:
                 dg = self.jacobian_solve(e, E, -R, c, ad)
             except (np.linalg.LinAlgError, ValueError) as err:
@@ -293,12 +308,11 @@ class CondensedNewton:
         # Dw = E c w (npts, 2, 2); P = G^T Dw G sparse (r x r, banded; its values scattered by
         # a map built once); v = G^T Dw b: one compiled call (``jac_setup``)
         P = self.ptp_pattern()
-        GT = J0.GT
+        GT, G = J0.GT, J0.G
         r = GT.shape[0]
-        v = np.empty(r)
-        jac_setup(E, c * J0.w, b, *self._ptp_map, J0.G.data, GT.indptr, GT.indices,
-                  GT.data, P.data, np.empty(2 * J0.npts), v)
-        z = np.empty(r)
+        v, z, tmp = self.solve_work(r, 2 * J0.npts)
+        jac_setup(E, c * J0.w, b, *self._ptp_map, G.data, GT.indptr, GT.indices,
+                  GT.data, P.data, tmp, v)
         ok = False
         if self.jacobian_reuse and e.jac_lu is not None:
             luT, piv, p0 = e.jac_lu
@@ -312,18 +326,38 @@ class CondensedNewton:
                 if its > GMRES_REFRESH:                   # the next solve factorises
                     e.jac_lu = None
         if not ok:
-            H = e.Yinv.copy()
-            H.ravel()[self._ptp_flat] += P.data
-            lu, piv, info = sla.lapack.dgetrf(H, overwrite_a=True)
+            # H = Y^-1 + P is formed in Fortran order in the entry's own buffer and factorised
+            # there: Y^-1 is symmetric (bitwise), so a C-order copy of it read as its transpose
+            # is Y^-1 again, and P's values go to their transposed positions. getrf then works
+            # in place and its LU read in C order is the LU^T the kernels take: no copy, no
+            # transposition (a C-order H went through f2py's transposing copy to Fortran
+            # order: r = 336 alone, 1.4 against 0.6 ms a factorisation; in a run the gain is
+            # within the host's noise, BENCHMARKS.md) and the same numbers bit for bit
+            buf = e.jac_buf
+            if buf is None or buf.shape != e.Yinv.shape:
+                buf = e.jac_buf = np.empty_like(e.Yinv)
+            e.jac_lu = None                               # buf holds the kept LU: dropped
+            np.copyto(buf, e.Yinv)
+            scatter_add(buf.ravel(), self._ptp_flatT, P.data)
+            lu, piv, info = sla.lapack.dgetrf(buf.T, overwrite_a=True)
             if info != 0:
                 raise np.linalg.LinAlgError(f"interface Jacobian singular (dgetrf info {info})")
             self.stats["jacobian_factorisations"] += 1
-            e.jac_lu = (np.ascontiguousarray(lu.T), piv.astype(np.int32), P.data.copy())
-            lu_solve_into(e.jac_lu[0], e.jac_lu[1], v, z)
-        x = b - mv(J0.G, z)
-        if not np.all(np.isfinite(x)):
+            luT = lu.T                          # buf itself (getrf returns Fortran order)
+            e.jac_lu = (luT, piv.astype(np.int32), P.data.copy())
+            lu_solve_into(luT, e.jac_lu[1], v, z)
+        x = np.empty_like(b)
+        if not push_back(b, G.indptr, G.indices, G.data, z, x):     # x = b - G z
             raise np.linalg.LinAlgError("interface Jacobian: non-finite solution")
         return x
+
+    def solve_work(self, r, n2):
+        """Work vectors of ``jacobian_solve`` (v, z of size r; G^T's operand of size n2),
+        allocated once: each is consumed within the call."""
+        wk = self._solve_wk
+        if wk is None or wk[0].shape[0] != r or wk[2].shape[0] != n2:
+            wk = self._solve_wk = (np.empty(r), np.empty(r), np.empty(n2))
+        return wk
 
     def gmres_work(self, r):
         """GMRES work arrays for an r x r system (allocated once; the kernel only writes)."""
@@ -352,5 +386,6 @@ class CondensedNewton:
             self._ptp, self._ptp_of = P, G
             # unsigned (no negative-index test in ``jac_setup``'s loops)
             self._ptp_map = tuple(x.astype(np.uint32) for x in (PT, A, Bk, Q1, Q2, pos))
-            self._ptp_flat = prow.astype(np.int64) * r + P.indices   # positions in r x r
+            # positions of P's values in H^T (C order) = H (Fortran order)
+            self._ptp_flatT = P.indices.astype(np.int64) * r + prow
         return self._ptp
