@@ -5,8 +5,8 @@ penalty), Coulomb friction after decohesion, cyclic damage, and size-scale laws.
 numba: usable from any FE code, never imports NGSolve.
 """
 from .params import CohesiveParams, ContactParams, DamageParams, FrictionParams
-from .law import InterfaceLaw, InterfaceState
+from .law import BoundLaw, InterfaceLaw, InterfaceState
 
 __all__ = ["CohesiveParams", "ContactParams", "FrictionParams", "DamageParams",
-           "InterfaceLaw", "InterfaceState"]
+           "InterfaceLaw", "InterfaceState", "BoundLaw"]
 __version__ = "0.1.0"

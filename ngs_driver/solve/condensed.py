@@ -27,6 +27,7 @@ docs/solver.md §2.4).
 """
 from __future__ import annotations
 
+import math
 from collections import OrderedDict
 from dataclasses import dataclass, field
 
@@ -177,6 +178,7 @@ class CondensedNewton:
             u_lin = e.factor.backward(z_lin)
             g_lin = J0.gap(u_lin)
         wd, k0v = J0.wd, J0.k0v
+        wdk0 = wd * k0v                  # the direction's energy weight (wd * k0v * R)
         n2 = 2 * J0.npts
         act = active0.copy()
         ad = dof_index(np.flatnonzero(act))
@@ -204,6 +206,9 @@ class CondensedNewton:
 
         G, GT = J0.G, J0.GT
         r = GT.shape[0]
+        # the law bound to the committed state and law_dt once for the attempt (its checks of
+        # state and dt, the kernel's choice): each call checks only its gap (InterfaceLaw.bind)
+        lawcall = law.bind(state, law_dt)
         y = np.empty(r)
         wphi_buf = np.empty(n2)
         newly = np.empty(J0.npts, np.bool_)
@@ -213,7 +218,7 @@ class CondensedNewton:
             # compiled pass (``gap_phi``), Y (.) by BLAS, then R = g - g_lin + c G (.)
             # (``gap_residual``): the numbers of ``Smul`` and ``wphi`` in the same order
             act, ad = (cur[5], cur[6]) if cur is not None else (act0, ad0)
-            t, T, new = law.evaluate(g.reshape(-1, 2), state, dt=law_dt)
+            t, T, new = lawcall(g)           # law.evaluate(g.reshape(-1, 2), state, dt=law_dt)
             phi = np.empty(n2)
             nnew, anyact = gap_phi(t.ravel(), g, k0v, wd, J0.active_tol, act, GT.indptr,
                                    GT.indices, GT.data, phi, newly, wphi_buf, y)
@@ -226,7 +231,8 @@ class CondensedNewton:
                 gap_residual(g, g_lin, c, G.indptr, G.indices, G.data, e.Y @ y, R)
             else:
                 R = g - g_lin
-            return (t, T, new, phi, R, act, ad), np.linalg.norm(R) / gscale
+            # sqrt(R . R): np.linalg.norm's own arithmetic for a real vector, without its checks
+            return (t, T, new, phi, R, act, ad), math.sqrt(R.dot(R)) / gscale
 
         def direction(g, cur):
             # exact Newton direction on all gaps: (I + c S W E) dg = -R, E = T - K0 at the
@@ -239,7 +245,7 @@ class CondensedNewton:
                 dg = self.jacobian_solve(e, E, -R, c, ad)
             except (np.linalg.LinAlgError, ValueError) as err:
                 raise DirectionFailed(str(err)) from err
-            return dg, abs(np.dot(dg, wd * k0v * R))
+            return dg, abs(np.dot(dg, wdk0 * R))
 
         act0, ad0 = act, ad
         ok, g, out, it, rnorm = self.control.solve(g, evaluate, direction, stall)

@@ -54,6 +54,29 @@ class JointLaws:
                 getattr(new, f.name)[sl] = getattr(si, f.name)
         return t, T, new
 
+    def bind(self, state, dt=None):
+        """``evaluate(gap, state, dt=dt)`` as a callable of the gap alone (as
+        ``InterfaceLaw.bind``): each joint's law bound to its slice of ``state`` once; the same
+        numbers as ``evaluate``."""
+        bound = tuple(law.bind(state.take(sl), dt) for law, sl in zip(self.laws, self.slices))
+        slices = self.slices
+        names = [f.name for f in fields(InterfaceState)]
+
+        def call(gap):
+            gap = gap.reshape(-1, state.dim)
+            n, dim = gap.shape
+            t = np.empty((n, dim))
+            T = np.empty((n, dim, dim))
+            new = InterfaceState(*(np.empty_like(getattr(state, f)) for f in names))
+            for b, sl in zip(bound, slices):
+                ti, Ti, si = b(np.ascontiguousarray(gap[sl]))
+                t[sl] = ti
+                T[sl] = Ti
+                for f in names:
+                    getattr(new, f)[sl] = getattr(si, f)
+            return t, T, new
+        return call
+
 
 def law_stiffness(law, cracked: bool = False) -> tuple[float, float]:
     """(k_N, k_T) [Pa/m] of a joint under compression: the normal stiffness is the contact's

@@ -8,6 +8,7 @@ factorisation per iteration (``FullNewton`` below, the reference). Each attempt 
 returns an ``Attempt``."""
 from __future__ import annotations
 
+import math
 from typing import NamedTuple
 
 import numpy as np
@@ -89,7 +90,7 @@ class NewtonControl:
     def status(self, rnorm, energy, energy0, it, stall, hist):
         """True converged, False failed (cut the step), None iterate on. stall = m > 0: the
         stall rule (``stalled``) on the residuals ``hist`` of the attempt so far."""
-        if not np.isfinite(rnorm) or rnorm > 1e12:
+        if not math.isfinite(rnorm) or rnorm > 1e12:
             return False
         if energy0 is not None and self.converged(rnorm, energy, energy0):
             return True
