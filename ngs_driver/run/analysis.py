@@ -66,7 +66,7 @@ from .history import (HIST_KEYS, HeelOpening, Snapshots, StepHistory,
 from .joints import Joints, SizeScale
 from .outputs import Outputs
 from .pairing import JointPairing
-from .parts import StepContext, join_checkpoint, split_checkpoint
+from .parts import StepContext, acting, join_checkpoint, split_checkpoint
 from .post_earthquake import PostEarthquakeCheck
 from .progress import OutputsStep, Progress
 from .reservoir import ReservoirRun
@@ -280,6 +280,7 @@ class Analysis:
         self.stop_rule = CollapseRule(model, joints, ts.max_slip, ts.max_rotation,
                                       inp.solver.kinematics)
         self.progress_bar = Progress(progress, self.n_steps, inp.label, self._history)
+        self._acting = None               # (parts, those acting before, after) (``step``)
         self.parts = [p for p in (
             self.solver_part, self.uplift, self.screening, self.reservoir, joints, self.safety,
             self.energy, self._history, self.guard, self.size_scale, self.pairing,
@@ -423,11 +424,16 @@ class Analysis:
             f_k = f_k + self.absorbing.force(solver.time + solver.dt)
         ctx = StepContext(k=k, t=tk, dt=self.inputs.time.dt, solver=solver, load=f_k,
                           static_loads=self._static_loads, ground=(self.ax[k], self.ay[k]))
-        for part in self.parts:                   # in their order (run.parts)
+        if self._acting is None or self._acting[0] is not self.parts:
+            # the parts with a before/after hook that does something (the others' no-ops are
+            # not called), in their order (run.parts)
+            self._acting = (self.parts, acting(self.parts, "before_step"),
+                            acting(self.parts, "after_step"))
+        for part in self._acting[1]:
             part.before_step(ctx)
         ctx.report, ctx.load, ctx.energy, ctx.scan = self._solve(k, tk, ctx.load)
         self.k = k
-        for part in self.parts:
+        for part in self._acting[2]:
             part.after_step(ctx)
         if ctx.stop is not None:
             coll = dict(ctx.stop)

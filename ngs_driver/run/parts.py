@@ -19,7 +19,7 @@ from typing import Any, Callable, Protocol, runtime_checkable
 
 import numpy as np
 
-__all__ = ["StepContext", "StepPart", "Part", "split_checkpoint", "join_checkpoint"]
+__all__ = ["StepContext", "StepPart", "Part", "acting", "split_checkpoint", "join_checkpoint"]
 
 
 @dataclasses.dataclass
@@ -91,6 +91,14 @@ class Part:
 
     def restore(self, d: dict) -> None:
         pass
+
+
+def acting(parts, hook: str) -> list:
+    """The parts whose ``hook`` ("before_step" or "after_step") is not ``Part``'s no-op (the
+    step loop calls only those; the others' calls would do nothing), in their order."""
+    noop = getattr(Part, hook)
+    return [p for p in parts
+            if hook in getattr(p, "__dict__", ()) or getattr(type(p), hook, None) is not noop]
 
 
 def split_checkpoint(parts) -> tuple[dict, dict]:

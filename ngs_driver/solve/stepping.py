@@ -72,6 +72,18 @@ class StepController:
 
     def __init__(self, event_levels=3):
         self.event_levels = int(event_levels)
+        self._signs = None                # (state, its slip_signs) of the last friction_event
+
+    def commit(self, solver, h, fe, res, rep):
+        """Commit the converged attempt ``res`` of sub-step h and book it."""
+        cs = solver.committed
+        kept = self._signs
+        self._signs = None
+        signs = kept[1] if kept is not None and kept[0] is res.state else \
+            slip_signs(res.state, cs.state)
+        solver.commit(h, fe, res)
+        cs.slip_sign = signs
+        rep.accepted(res, h)
 
     def friction_event(self, solver, new, hf) -> bool:
         """True when, in the attempt that ends in ``new``, most of the points that were sliding
@@ -82,13 +94,15 @@ class StepController:
         ~ the block's deceleration times the step; halving localises the event to dt / 2^k
         (verification/sliding.py, docs/sliding.md)."""
         prev = solver.committed.slip_sign
+        # 0.5**k is 2^-k exactly: the comparison with a Fraction hf is exact
         if (self.event_levels <= 0 or prev is None
-                or hf <= Fraction(1, 2 ** self.event_levels)):
+                or hf <= 0.5 ** self.event_levels):
             return False
         sliding = prev != 0
         if not sliding.any():
             return False
         now = slip_signs(new, solver.committed.state)
+        self._signs = (new, now)          # the commit of ``new`` takes them (``step``)
         changed = sliding & (now != prev)
         w = solver.w
         return float(w[changed].sum()) > 0.5 * float(w[sliding].sum())
@@ -102,29 +116,43 @@ class StepController:
         dt, min_dt = solver.dt, solver.min_dt
         f_next = np.asarray(f_next, dtype=float)
         f_start = cs.f if cs.f is not None else f_next
-        pos = Fraction(0)
-        hmax = Fraction(1, 2 ** int(split))
-        if dt * float(hmax) < min_dt * (1 - 1e-12):
+        hmax_f = 0.5 ** int(split)                  # float(Fraction(1, 2^split)) exactly
+        if dt * hmax_f < min_dt * (1 - 1e-12):
             raise SolverError(f"step to t = {cs.time + dt:.6g} s: a sub-step dt / "
-                              f"2^{split} = {dt * float(hmax):.3g} s is below the minimum "
+                              f"2^{split} = {dt * hmax_f:.3g} s is below the minimum "
                               f"sub-step {min_dt:.3g} s; committed state is at "
                               f"t = {cs.time:.6g} s")
+        first = None
+        if split == 0:
+            # the whole step in one attempt (the common case) without Fraction arithmetic:
+            # h = dt * float(1) = dt, the load f_next (end == 1), the event test at hf = 1
+            self._signs = None
+            first = solver.attempt(dt, f_next)
+            if first.ok and not self.friction_event(solver, first.state, 1):
+                self.commit(solver, dt, f_next, first, rep)
+                rep.n_active = int(cs.active.sum())
+                rep.wall = time.perf_counter() - t0
+                solver.history.append(rep)
+                return rep
+        pos = Fraction(0)
+        hmax = Fraction(1, 2 ** int(split))
         hf = hmax
         while pos < 1:
             hf = min(hf, 1 - pos)
             h = dt * float(hf)
             end = pos + hf
             fe = f_next if end == 1 else f_start + float(end) * (f_next - f_start)
-            res = solver.attempt(h, fe)
+            if first is not None:                   # the first attempt, made above
+                res, first = first, None
+            else:
+                self._signs = None
+                res = solver.attempt(h, fe)
             if res.ok and self.friction_event(solver, res.state, hf):
                 rep.event_cuts += 1                 # redo the event with half the sub-step
                 hf /= 2
                 continue
             if res.ok:
-                signs = slip_signs(res.state, cs.state)
-                solver.commit(h, fe, res)
-                cs.slip_sign = signs
-                rep.accepted(res, h)
+                self.commit(solver, h, fe, res, rep)
                 pos = end
                 if hf < hmax and pos % (2 * hf) == 0:
                     hf *= 2
