@@ -56,6 +56,13 @@ GMRES_MAX = 16
 GMRES_REFRESH = 8
 
 
+def norm2(x) -> float:
+    """np.linalg.norm(x) of a real array, bit for bit (its own arithmetic: sqrt of the dot
+    product of the K-order ravel), without its checks and dispatch."""
+    x = x.ravel(order="K")
+    return math.sqrt(x.dot(x))
+
+
 @dataclass
 class StepEntry:
     """Per-step-size data of the condensed method."""
@@ -202,7 +209,7 @@ class CondensedNewton:
         # the residual's scale is fixed for the attempt (the linear predictor, the committed
         # gap, the law's elastic opening): relative to the iterate's own norm a runaway slip
         # of a sliding joint would make any residual look small
-        gscale = max(np.linalg.norm(g_lin), np.linalg.norm(g0), J0.gref)
+        gscale = max(norm2(g_lin), norm2(g0), J0.gref)
 
         G, GT = J0.G, J0.GT
         r = GT.shape[0]
@@ -231,8 +238,7 @@ class CondensedNewton:
                 gap_residual(g, g_lin, c, G.indptr, G.indices, G.data, e.Y @ y, R)
             else:
                 R = g - g_lin
-            # sqrt(R . R): np.linalg.norm's own arithmetic for a real vector, without its checks
-            return (t, T, new, phi, R, act, ad), math.sqrt(R.dot(R)) / gscale
+            return (t, T, new, phi, R, act, ad), norm2(R) / gscale
 
         def direction(g, cur):
             # exact Newton direction on all gaps: (I + c S W E) dg = -R, E = T - K0 at the
@@ -254,8 +260,11 @@ class CondensedNewton:
         t, T, new, phi, R, act, ad = out
         # recover u = A^-1 (rhs - c B^T W phi_a) = Pc U^-1 (z_lin - c L^-1 Pr B^T W phi_a):
         # the forward part only visits the closure of the interface rows
-        phia = np.zeros_like(phi)
-        phia[ad] = phi[ad]
+        if ad.size == n2:                         # every point active: phi itself
+            phia = phi.copy()
+        else:
+            phia = np.zeros_like(phi)
+            phia[ad] = phi[ad]
         pa = ad[0::2] // 2
         if not ad.size:
             u = u_lin if u_lin is not None else e.factor.backward(z_lin)
