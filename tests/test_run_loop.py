@@ -459,3 +459,77 @@ def test_every_part_of_a_run_keeps_the_protocol():
     assert back["n"] == 2 and back["d"] == {"t": None}
     with pytest.raises(ValueError, match="two parts named 'a'"):
         P.split_checkpoint([A(), A()])
+
+
+def test_step_calls_only_the_parts_that_act():
+    """``run.parts.acting``: the parts whose hook is not Part's no-op, in order; a hook set on
+    the instance or a class outside Part's tree counts; Analysis.step calls these only."""
+    from ngs_driver.run import parts as P
+
+    class Before(P.Part):
+        name = "before"
+
+        def before_step(self, ctx):
+            pass
+
+    class After(Before):
+        name = "after"
+
+        def after_step(self, ctx):
+            pass
+
+    class Plain:                          # the protocol without Part's defaults
+        name = "plain"
+
+        def before_step(self, ctx):
+            pass
+
+        def after_step(self, ctx):
+            pass
+
+    noop, b, a, p, inst = P.Part(), Before(), After(), Plain(), P.Part()
+    inst.after_step = lambda ctx: None
+    parts = [noop, b, a, p, inst]
+    assert P.acting(parts, "before_step") == [b, a, p]
+    assert P.acting(parts, "after_step") == [a, p, inst]
+
+
+def test_step_controller_first_attempt_is_not_repeated():
+    """The whole step's first attempt (made without Fraction arithmetic) feeds the sub-step
+    loop when it fails: each sub-step size is attempted once, as before (dt, dt/2, dt/4, then
+    the second half at dt/2 after growing back), and the loads are interpolated in time."""
+    from types import SimpleNamespace
+    from ngs_driver.solve.newton import Attempt, failed
+    from ngs_driver.solve.stepping import StepController
+
+    calls = []
+    st = SimpleNamespace(slip=np.zeros((2, 1)))
+    cs = SimpleNamespace(f=np.array([0.0]), time=0.0, state=st, slip_sign=None,
+                         active=np.array([True, False]))
+
+    class Solver:
+        dt, min_dt, w = 1.0, 1e-3, np.ones(2)
+        committed = cs
+        history = []
+
+        def drop_static(self):
+            pass
+
+        def attempt(self, h, fe):
+            calls.append((h, float(fe[0])))
+            if h == 1.0 or (h == 0.5 and fe[0] == 4.0):      # the first half fails at dt/2
+                return failed(3, 1.0)
+            return Attempt(True, None, None, None, st, None, None, 2, 1e-9)
+
+        def commit(self, h, fe, res):
+            cs.time += h
+            cs.f = fe
+
+    rep = StepController().step(Solver(), np.array([8.0]))
+    assert calls == [(1.0, 8.0), (0.5, 4.0), (0.25, 2.0), (0.25, 4.0), (0.5, 8.0)]
+    assert rep.dts == [0.25, 0.25, 0.5] and rep.cuts == 2 and rep.iterations == 6
+    assert rep.iterations_failed == 6 and cs.time == 1.0
+    calls.clear()
+    cs.f, cs.time = np.array([4.0]), 0.0
+    rep = StepController().step(Solver(), np.array([8.0]), split=1)   # no whole-step try
+    assert calls[0] == (0.5, 6.0) and rep.dts == [0.5, 0.5]
