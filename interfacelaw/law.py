@@ -164,7 +164,17 @@ class InterfaceLaw:
         if state.n != n or state.dim != dim:
             raise ValueError(f"evaluate state: {state.n} points in {state.dim}D do not match "
                              f"gap of shape {gap.shape}; allowed: the same n and dim")
-        big = np.abs(gap).max() if n else 0.0
+        if n and gap.flags.c_contiguous:
+            flat = gap.reshape(-1)
+            if flat.dot(flat) <= _QUICK_SQ:           # every |g| < GAP_LIMIT (``_QUICK_SQ``)
+                return
+        self.check_gap(gap)
+
+    @staticmethod
+    def check_gap(gap):
+        """ValueError (``evaluate``'s message) unless every |gap| <= GAP_LIMIT (no NaN, no
+        inf); one pass over |gap|, the first bad point named."""
+        big = np.abs(gap).max() if gap.shape[0] else 0.0
         if not big <= GAP_LIMIT:                      # one pass: also catches NaN and inf
             bad = ~(np.abs(gap) <= GAP_LIMIT).all(axis=1)
             i = int(np.flatnonzero(bad)[0])
@@ -299,7 +309,7 @@ class BoundLaw:
         g = gap if gap.flags.c_contiguous else np.ascontiguousarray(gap)
         g = g.reshape(-1)
         if not (n == 0 or g.dot(g) <= _QUICK_SQ):
-            self.law._check(g.reshape(n, dim), self.state)   # raises, or a large finite gap
+            self.law.check_gap(g.reshape(n, dim))   # raises, or a large finite gap passes
         F = np.empty((n, dim))
         T = np.empty((n, dim, dim))
         slip = self.slip if self.slip is not None else np.empty((n, dim - 1))

@@ -119,3 +119,20 @@ def test_joint_laws_bind_equals_evaluate_bitwise():
     st = history(a, 20, rng)
     g = rng.normal(scale=COH.l_Nc, size=40)
     same(jl.bind(st, 0.01)(g), jl.evaluate(g.reshape(-1, 2), st, dt=0.01))
+
+
+@pytest.mark.parametrize("order", ["C", "F"])          # F: no quick accept, the full pass
+def test_evaluate_gap_check_at_the_limit(order):
+    """evaluate's check (the quick accept g.g <= 1e199, else one pass over |g|): values up to
+    GAP_LIMIT pass (also where the squares sum above 1e199), just above it raise, whatever the
+    array's layout."""
+    law = LAWS["cohesive"]()
+    st = law.initial_state(3)
+    g = np.asfortranarray(np.array([[GAP_LIMIT, 0.0], [-GAP_LIMIT, 1.0], [0.0, 0.0]]),
+                          dtype=float) if order == "F" else \
+        np.array([[GAP_LIMIT, 0.0], [-GAP_LIMIT, 1.0], [0.0, 0.0]])
+    t = law.evaluate(g, st)[0]
+    assert np.all(np.isfinite(t))
+    g[2, 1] = np.nextafter(GAP_LIMIT, np.inf)
+    with pytest.raises(ValueError, match=r"gap\[2\] = \[0.0, 1.0000000000000002e\+100\]"):
+        law.evaluate(g, st)
