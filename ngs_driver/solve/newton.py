@@ -75,7 +75,7 @@ class NewtonControl:
         trial point)."""
         s = 1.0
         while True:
-            xt = x + s * dx
+            xt = x + dx if s == 1.0 else x + s * dx      # 1.0 * dx is dx bit for bit
             try:
                 out, rn_t = trial(xt)
             except (ValueError, FloatingPointError):
