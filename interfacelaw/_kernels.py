@@ -550,6 +550,11 @@ def cache_lock():
         os.close(fd)                     # closing releases the lock
 
 
+def compiled(kern, key) -> bool:
+    """True when ``call`` has compiled ``kern`` for ``key`` (later calls may call it directly)."""
+    return (kern, key) in _compiled
+
+
 def call(kern, key, *args):
     """kern(*args), compiling it with the forced vector width on its first call for ``key``
     (under ``cache_lock``)."""

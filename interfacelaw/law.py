@@ -295,7 +295,8 @@ class BoundLaw:
                       c(state.dissipated))
         # no friction: the new state's slip is the committed one (as ``evaluate``)
         self.slip = state.slip if law.friction is None else None
-        self.ready = False                    # the kernel went once through _kernels.call
+        # the kernel went through _kernels.call (compiled with its options): called directly
+        self.ready = _kernels.compiled(self.kern, self.key)
 
     def __call__(self, gap):
         n, dim = self.n, self.dim
