@@ -184,7 +184,7 @@ BREAKDOWN = (
     ("ngs_driver.solve.sparse:SparseFactor", "forward_sparse", "— forward halves from the interface DOFs"),
     ("ngs_driver.solve.fluid:FluidStepper", "rhs", "— the water's rows (`FluidStepper.rhs`)"),
     ("ngs_driver.solve.fluid:FluidStepper", "commit", "— the water's state (`FluidStepper.commit`)"),
-    ("interfacelaw.law:InterfaceLaw", "evaluate", "— the interface law"),
+    ("interfacelaw.law:BoundLaw", "__call__", "— the interface law (bound per attempt, `law.bind`)"),
     ("ngs_driver.solve.joint_solver:JointSolver", "step_products", "the step's products (K u, M v for the energy; M x, C y, C v for the next right-hand side)"),
     ("ngs_driver.run.energy:EnergyBudget", "step", "bookkeeping: energy budget"),
     ("ngs_driver.run.reservoir:ReservoirRun", "sample", "bookkeeping: reservoir stations"),
