@@ -17,7 +17,15 @@ vectors were handed back and faulted in again every step (the Koyna 0.2x step 2.
 median, measured). Measured (2026-11-27, `/usr/bin/time` of the command): 475 MiB peak (`run-paper koyna`: 482 MiB) with
 the results bitwise the same and the step unchanged within the host's noise (docs/run.md §6).
 A threshold the user set (``MALLOC_MMAP_THRESHOLD_`` or ``MALLOC_TRIM_THRESHOLD_`` in the
-environment, read by glibc itself) is left alone; off glibc this does nothing."""
+environment, read by glibc itself) is left alone by the command; off glibc this does nothing.
+
+Dask's nanny starts its workers with ``MALLOC_TRIM_THRESHOLD_=65536`` (its config
+``distributed.nanny.pre-spawn-environ``; it also leaves the variable in the parent's
+environment), which switches glibc's dynamic rule off with a 64 KiB trim: measured on
+koyna_engineering with the reduced bulk (4 s, ``verification/step_cost.py --scene
+koyna_engineering --set solver.bulk=reduced``), the time loop 3.52-3.77 s against 3.33 s
+without it. An IDA task therefore sets this module's thresholds in its worker
+(``respect_env=False``, ``studies.ida.execute``)."""
 from __future__ import annotations
 
 import ctypes
@@ -33,9 +41,11 @@ TRIM_THRESHOLD = 32 << 20        # [bytes] free memory at the heap's top kept up
 
 
 def fix_heap_thresholds(mmap_bytes: int = MMAP_THRESHOLD,
-                        trim_bytes: int = TRIM_THRESHOLD) -> bool:
-    """Fix glibc's mmap and trim thresholds; True if both were set."""
-    if "MALLOC_MMAP_THRESHOLD_" in os.environ or "MALLOC_TRIM_THRESHOLD_" in os.environ:
+                        trim_bytes: int = TRIM_THRESHOLD, respect_env: bool = True) -> bool:
+    """Fix glibc's mmap and trim thresholds; True if both were set. ``respect_env``: leave
+    them as a ``MALLOC_*_THRESHOLD_`` variable of the environment set them."""
+    if respect_env and ("MALLOC_MMAP_THRESHOLD_" in os.environ
+                        or "MALLOC_TRIM_THRESHOLD_" in os.environ):
         return False
     name = ctypes.util.find_library("c")
     if not name:

@@ -41,6 +41,7 @@ from tqdm import tqdm
 
 import ngs_driver
 
+from ..apps.heap import fix_heap_thresholds
 from ..post.files import atomic_write_bytes, atomic_write_json, atomic_write_text
 from ..post.outputs import RunOutputs
 from ..run import prepare
@@ -277,6 +278,8 @@ def demand_measures(summary: dict | None, rec: dict, model, base=slice(None)) ->
 
 def execute(spec: dict, root: str) -> dict:
     """One IDA run (a Dask task). Returns the result dict, also written to result.json."""
+    # the worker's heap as the command's, not Dask's 64 KiB trim (apps/heap.py); idempotent
+    fix_heap_thresholds(respect_env=False)
 
     d = sweep.run_dir(root, spec)
     earlier = sweep.finished(d)
