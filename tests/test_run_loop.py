@@ -14,7 +14,10 @@ from ngs_driver.solve.products import FusedPair
 from ngs_driver.run.joints import Joints, crack_measures
 from ngs_driver.setup import joint_inputs
 from ngs_driver.run.history import History
+from ngs_driver.run.parts import Part, acting
 from ngs_driver.scene import load_scene
+from ngs_driver.solve.newton import Attempt, failed
+from ngs_driver.solve.stepping import StepController
 
 
 def _spd(n, rng, density=0.05):
@@ -464,9 +467,7 @@ def test_every_part_of_a_run_keeps_the_protocol():
 def test_step_calls_only_the_parts_that_act():
     """``run.parts.acting``: the parts whose hook is not Part's no-op, in order; a hook set on
     the instance or a class outside Part's tree counts; Analysis.step calls these only."""
-    from ngs_driver.run import parts as P
-
-    class Before(P.Part):
+    class Before(Part):
         name = "before"
 
         def before_step(self, ctx):
@@ -487,21 +488,17 @@ def test_step_calls_only_the_parts_that_act():
         def after_step(self, ctx):
             pass
 
-    noop, b, a, p, inst = P.Part(), Before(), After(), Plain(), P.Part()
+    noop, b, a, p, inst = Part(), Before(), After(), Plain(), Part()
     inst.after_step = lambda ctx: None
     parts = [noop, b, a, p, inst]
-    assert P.acting(parts, "before_step") == [b, a, p]
-    assert P.acting(parts, "after_step") == [a, p, inst]
+    assert acting(parts, "before_step") == [b, a, p]
+    assert acting(parts, "after_step") == [a, p, inst]
 
 
 def test_step_controller_first_attempt_is_not_repeated():
     """The whole step's first attempt (made without Fraction arithmetic) feeds the sub-step
     loop when it fails: each sub-step size is attempted once, as before (dt, dt/2, dt/4, then
     the second half at dt/2 after growing back), and the loads are interpolated in time."""
-    from types import SimpleNamespace
-    from ngs_driver.solve.newton import Attempt, failed
-    from ngs_driver.solve.stepping import StepController
-
     calls = []
     st = SimpleNamespace(slip=np.zeros((2, 1)))
     cs = SimpleNamespace(f=np.array([0.0]), time=0.0, state=st, slip_sign=None,
