@@ -530,3 +530,45 @@ def test_step_controller_first_attempt_is_not_repeated():
     cs.f, cs.time = np.array([4.0]), 0.0
     rep = StepController().step(Solver(), np.array([8.0]), split=1)   # no whole-step try
     assert calls[0] == (0.5, 6.0) and rep.dts == [0.5, 0.5]
+
+
+def test_step_controller_first_attempt_keeps_the_friction_event_rule():
+    """A converged whole-step attempt in which the sliding points reverse is a friction event
+    (``StepController.friction_event``): not committed, redone with half the sub-step (one
+    event cut), and the committed slip signs are those of the sub-steps that were committed;
+    with event_levels = 0 the same attempt is committed as it is, its signs formed by the
+    commit. The signs are exact integers: compared exactly."""
+    calls = []
+    cs = SimpleNamespace(f=np.array([0.0]), time=0.0, slip_sign=None,
+                         state=SimpleNamespace(slip=np.zeros((2, 1))),
+                         active=np.array([True, True]))
+
+    class Solver:
+        dt, min_dt, w = 1.0, 1e-3, np.ones(2)
+        committed = cs
+        history = []
+
+        def drop_static(self):
+            pass
+
+        def attempt(self, h, fe):
+            calls.append((h, float(fe[0])))
+            step = -1.0 if h == 1.0 else 1.0              # the whole step: both points reverse
+            st = SimpleNamespace(slip=cs.state.slip + step)
+            return Attempt(True, None, None, None, st, None, None, 2, 1e-9)
+
+        def commit(self, h, fe, res):
+            cs.time += h
+            cs.f = fe
+            cs.state = res.state
+
+    cs.slip_sign = np.array([1, 1], np.int8)             # both points were sliding forward
+    rep = StepController(event_levels=3).step(Solver(), np.array([8.0]))
+    assert calls == [(1.0, 8.0), (0.5, 4.0), (0.5, 8.0)]
+    assert rep.event_cuts == 1 and rep.dts == [0.5, 0.5] and rep.cuts == 0 and cs.time == 1.0
+    assert cs.slip_sign.tolist() == [1, 1] and cs.state.slip[:, 0].tolist() == [2.0, 2.0]
+    calls.clear()
+    cs.f, cs.time, cs.slip_sign = np.array([0.0]), 0.0, np.array([1, 1], np.int8)
+    rep = StepController(event_levels=0).step(Solver(), np.array([8.0]))
+    assert calls == [(1.0, 8.0)] and rep.event_cuts == 0 and rep.dts == [1.0]
+    assert cs.slip_sign.tolist() == [-1, -1]
