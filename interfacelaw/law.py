@@ -270,7 +270,7 @@ class BoundLaw:
 
     ``bound(gap)`` takes the gap as a float64 array of n * dim values (flat, or (n, dim));
     returns ``traction (n, dim), tangent (n, dim, dim), new_state`` in new arrays, as
-    ``evaluate`` with ``out=None``. Per call: the gap's dtype and size (O(1)) and one dot
+    ``evaluate`` with ``out=None``. Per call: the gap's dtype and shape (O(1)) and one dot
     product g . g (a NaN, an inf or a value near ``GAP_LIMIT`` fails the quick accept; then
     ``evaluate``'s own check runs and raises its error, or passes a large finite gap)."""
 
@@ -302,11 +302,9 @@ class BoundLaw:
         n, dim = self.n, self.dim
         if self.rdt is None:
             self.law._rdt(self.dt)            # raises evaluate's error
-        if not isinstance(gap, np.ndarray) or gap.dtype != np.float64 or gap.size != n * dim:
-            g2 = gap.reshape(-1, dim) if isinstance(gap, np.ndarray) and gap.ndim == 1 else gap
-            self.law._check(g2, self.state)    # raises evaluate's error
-            raise ValueError(f"bound law: gap of shape {np.shape(gap)} is not allowed; "
-                             f"allowed: {n * dim} float64 values")
+        if not isinstance(gap, np.ndarray) or gap.dtype != np.float64 or gap.size != n * dim \
+                or (gap.ndim != 1 and gap.shape != (n, dim)):
+            self.refuse(gap)
         g = gap if gap.flags.c_contiguous else np.ascontiguousarray(gap)
         g = g.reshape(-1)
         if not (n == 0 or g.dot(g) <= _QUICK_SQ):
@@ -326,3 +324,15 @@ class BoundLaw:
             _kernels.call(self.kern, self.key, *args)
             self.ready = True
         return F, T, new
+
+    def refuse(self, gap):
+        """Raise the error of a gap that is not n * dim float64 values, flat or (n, dim):
+        ``evaluate``'s where it has one (type, dtype, shape, another n or dim), else the bound
+        law's own (a flat gap whose size is not a multiple of dim)."""
+        n, dim = self.n, self.dim
+        flat = isinstance(gap, np.ndarray) and gap.ndim == 1
+        g2 = gap.reshape(-1, dim) if flat and gap.size % dim == 0 else gap
+        if not (flat and g2 is gap and gap.dtype == np.float64):
+            self.law._check(g2, self.state)    # raises evaluate's error
+        raise ValueError(f"bound law: gap of shape {np.shape(gap)} is not allowed; "
+                         f"allowed: {n * dim} float64 values, flat or of shape ({n}, {dim})")

@@ -15,6 +15,7 @@ from ngs_driver.solve import condensed
 from ngs_driver.solve.gap_kernels import (active_blocks, gap_phi, gap_residual, push_back,
                                           scatter_add)
 from ngs_driver.solve.joint_solver import JointSolver
+from ngs_driver.solve.kernels import mv
 from toymodel import block_on_block
 
 
@@ -29,7 +30,6 @@ def test_gap_kernels_are_the_numpy_expressions_bit_for_bit():
     """gap_phi, gap_residual, active_blocks, scatter_add, push_back against the numpy code
     they replaced in ``CondensedNewton.attempt`` (exact equality: same operations, same
     order; the sparse products as ``csr_mv``)."""
-    from ngs_driver.solve.kernels import mv
     rng = np.random.default_rng(7)
     npts, r = 40, 30
     n2 = 2 * npts
@@ -188,7 +188,6 @@ def test_reuse_policy_counts_factorisations(monkeypatch):
     assert seq[3:] == [0, 1]
     monkeypatch.setattr(condensed, "GMRES_REFRESH", 8)
     monkeypatch.setattr(condensed, "GMRES_MAX", 2)
-    nw._gmres_wk = None                               # work arrays sized for GMRES_MAX
     E3 = E0 * rng.uniform(0.2, 1.8, (npts, 1, 1))     # every point changes a lot
     solve(E3)                                         # GMRES gives up in 2: factorise
     assert seq[5:] == [1]

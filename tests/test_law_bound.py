@@ -110,6 +110,17 @@ def test_bound_law_checks_dt_and_shapes_like_evaluate():
         law.bind(st, 0.01)(np.zeros(10))      # 5 points for a state of 4
     with pytest.raises(ValueError, match="float64"):
         law.bind(st, 0.01)(np.zeros(8, np.float32))
+    # n * dim values in another shape: evaluate's message where it has one (a transposed
+    # gap would otherwise be read as 4 points with the wrong components), else the bound
+    # law's (a flat gap of 7 values is no whole number of points)
+    for bad in (np.zeros((2, 4)), np.zeros((8, 1)), np.zeros((4, 2, 1))):
+        with pytest.raises(ValueError) as ref:
+            law.evaluate(bad, st, dt=0.01)
+        with pytest.raises(ValueError) as got:
+            law.bind(st, 0.01)(bad)
+        assert str(got.value) == str(ref.value)
+    with pytest.raises(ValueError, match=r"gap of shape \(7,\) is not allowed; allowed: 8 "):
+        law.bind(st, 0.01)(np.zeros(7))
 
 
 def test_joint_laws_bind_equals_evaluate_bitwise():

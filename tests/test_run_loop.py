@@ -14,7 +14,10 @@ from ngs_driver.solve.products import FusedPair
 from ngs_driver.run.joints import Joints, crack_measures
 from ngs_driver.setup import joint_inputs
 from ngs_driver.run.history import History
+from ngs_driver.run.parts import Part, acting
 from ngs_driver.scene import load_scene
+from ngs_driver.solve.newton import Attempt, failed
+from ngs_driver.solve.stepping import StepController
 
 
 def _spd(n, rng, density=0.05):
@@ -464,9 +467,7 @@ def test_every_part_of_a_run_keeps_the_protocol():
 def test_step_calls_only_the_parts_that_act():
     """``run.parts.acting``: the parts whose hook is not Part's no-op, in order; a hook set on
     the instance or a class outside Part's tree counts; Analysis.step calls these only."""
-    from ngs_driver.run import parts as P
-
-    class Before(P.Part):
+    class Before(Part):
         name = "before"
 
         def before_step(self, ctx):
@@ -487,49 +488,83 @@ def test_step_calls_only_the_parts_that_act():
         def after_step(self, ctx):
             pass
 
-    noop, b, a, p, inst = P.Part(), Before(), After(), Plain(), P.Part()
+    noop, b, a, p, inst = Part(), Before(), After(), Plain(), Part()
     inst.after_step = lambda ctx: None
     parts = [noop, b, a, p, inst]
-    assert P.acting(parts, "before_step") == [b, a, p]
-    assert P.acting(parts, "after_step") == [a, p, inst]
+    assert acting(parts, "before_step") == [b, a, p]
+    assert acting(parts, "after_step") == [a, p, inst]
+
+
+class ScriptedSolver:
+    """The solver side of ``StepController.step``, scripted: dt = 1, the committed state
+    ``cs``; ``outcome(h, fe)`` gives each attempt, recorded in ``calls`` as (h, fe[0])."""
+    dt, min_dt, w = 1.0, 1e-3, np.ones(2)
+
+    def __init__(self, cs, outcome):
+        self.committed, self.outcome, self.calls, self.history = cs, outcome, [], []
+
+    def drop_static(self):
+        pass
+
+    def attempt(self, h, fe):
+        self.calls.append((h, float(fe[0])))
+        return self.outcome(h, fe)
+
+    def commit(self, h, fe, res):
+        cs = self.committed
+        cs.time += h
+        cs.f = fe
+        cs.state = res.state
 
 
 def test_step_controller_first_attempt_is_not_repeated():
     """The whole step's first attempt (made without Fraction arithmetic) feeds the sub-step
     loop when it fails: each sub-step size is attempted once, as before (dt, dt/2, dt/4, then
     the second half at dt/2 after growing back), and the loads are interpolated in time."""
-    from types import SimpleNamespace
-    from ngs_driver.solve.newton import Attempt, failed
-    from ngs_driver.solve.stepping import StepController
-
-    calls = []
     st = SimpleNamespace(slip=np.zeros((2, 1)))
     cs = SimpleNamespace(f=np.array([0.0]), time=0.0, state=st, slip_sign=None,
                          active=np.array([True, False]))
 
-    class Solver:
-        dt, min_dt, w = 1.0, 1e-3, np.ones(2)
-        committed = cs
-        history = []
+    def outcome(h, fe):
+        if h == 1.0 or (h == 0.5 and fe[0] == 4.0):          # the first half fails at dt/2
+            return failed(3, 1.0)
+        return Attempt(True, None, None, None, st, None, None, 2, 1e-9)
 
-        def drop_static(self):
-            pass
-
-        def attempt(self, h, fe):
-            calls.append((h, float(fe[0])))
-            if h == 1.0 or (h == 0.5 and fe[0] == 4.0):      # the first half fails at dt/2
-                return failed(3, 1.0)
-            return Attempt(True, None, None, None, st, None, None, 2, 1e-9)
-
-        def commit(self, h, fe, res):
-            cs.time += h
-            cs.f = fe
-
-    rep = StepController().step(Solver(), np.array([8.0]))
-    assert calls == [(1.0, 8.0), (0.5, 4.0), (0.25, 2.0), (0.25, 4.0), (0.5, 8.0)]
+    solver = ScriptedSolver(cs, outcome)
+    rep = StepController().step(solver, np.array([8.0]))
+    assert solver.calls == [(1.0, 8.0), (0.5, 4.0), (0.25, 2.0), (0.25, 4.0), (0.5, 8.0)]
     assert rep.dts == [0.25, 0.25, 0.5] and rep.cuts == 2 and rep.iterations == 6
-    assert rep.iterations_failed == 6 and cs.time == 1.0
-    calls.clear()
+    assert rep.iterations_failed == 6 and cs.time == 1.0 and rep.n_active == 1
+    assert solver.history == [rep]
     cs.f, cs.time = np.array([4.0]), 0.0
-    rep = StepController().step(Solver(), np.array([8.0]), split=1)   # no whole-step try
-    assert calls[0] == (0.5, 6.0) and rep.dts == [0.5, 0.5]
+    solver = ScriptedSolver(cs, outcome)
+    rep = StepController().step(solver, np.array([8.0]), split=1)   # no whole-step try
+    assert solver.calls[0] == (0.5, 6.0) and rep.dts == [0.5, 0.5]
+
+
+def test_step_controller_first_attempt_keeps_the_friction_event_rule():
+    """A converged whole-step attempt in which the sliding points reverse is a friction event
+    (``StepController.friction_event``): not committed, redone with half the sub-step (one
+    event cut), and the committed slip signs are those of the sub-steps that were committed;
+    with event_levels = 0 the same attempt is committed as it is, its signs formed by the
+    commit. The signs are exact integers: compared exactly."""
+    cs = SimpleNamespace(f=np.array([0.0]), time=0.0, slip_sign=None,
+                         state=SimpleNamespace(slip=np.zeros((2, 1))),
+                         active=np.array([True, True]))
+
+    def outcome(h, fe):
+        step = -1.0 if h == 1.0 else 1.0                     # the whole step: both reverse
+        st = SimpleNamespace(slip=cs.state.slip + step)
+        return Attempt(True, None, None, None, st, None, None, 2, 1e-9)
+
+    cs.slip_sign = np.array([1, 1], np.int8)             # both points were sliding forward
+    solver = ScriptedSolver(cs, outcome)
+    rep = StepController(event_levels=3).step(solver, np.array([8.0]))
+    assert solver.calls == [(1.0, 8.0), (0.5, 4.0), (0.5, 8.0)]
+    assert rep.event_cuts == 1 and rep.dts == [0.5, 0.5] and rep.cuts == 0 and cs.time == 1.0
+    assert cs.slip_sign.tolist() == [1, 1] and cs.state.slip[:, 0].tolist() == [2.0, 2.0]
+    cs.f, cs.time, cs.slip_sign = np.array([0.0]), 0.0, np.array([1, 1], np.int8)
+    solver = ScriptedSolver(cs, outcome)
+    rep = StepController(event_levels=0).step(solver, np.array([8.0]))
+    assert solver.calls == [(1.0, 8.0)] and rep.event_cuts == 0 and rep.dts == [1.0]
+    assert cs.slip_sign.tolist() == [-1, -1] and solver.history == [rep]

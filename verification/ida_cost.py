@@ -34,12 +34,11 @@ import argparse
 import concurrent.futures as cf
 import json
 import math
+import multiprocessing as mp
 import os
 import pathlib
 import sys
 import time
-
-import multiprocessing as mp
 
 import numpy as np
 
@@ -236,6 +235,8 @@ def table(rows, ext, cmp_rows, lengths, h_element, command) -> str:
                  f"{e['sum_wall_s'] / 3600:.2f} | {e['wall_h_on_workers']:.2f} | "
                  f"{e['ratio_s_per_s']:.3f} | {e['ratio_h_on_workers']:.2f} | "
                  f"{'met' if worst <= TARGET_H else 'not met'} |")
+    if not cmp_rows:                  # no pair of both bulks (--reduced-only): no table
+        return "\n".join(L) + "\n"
     L += ["", f"Reduced against full bulk (slip within 2 % or 1 mm; heel crack within one heel "
           f"element, {h_element:g} m):", "",
           "| record | PGA [g] | slip full [mm] | slip reduced [mm] | diff [mm] | ok | "

@@ -33,16 +33,10 @@ import time
 
 import numpy as np
 
+from ngs_driver.post.files import read_csv   # the one reader of a run's tables
+
 HERE = pathlib.Path(__file__).resolve().parent.parent
 SETS = ["ground_motion.scale=0.2", "interface.friction=0.8"]
-
-
-def timeseries(path) -> dict:
-    """The columns of a run's timeseries.csv (comment lines skipped)."""
-    lines = [x for x in pathlib.Path(path).read_text().splitlines() if not x.startswith("#")]
-    head = lines[0].split(",")
-    data = np.array([[float(v) for v in x.split(",")] for x in lines[1:]])
-    return {h: data[:, j] for j, h in enumerate(head)}
 
 
 def one(code, bulk, duration) -> dict:
@@ -67,8 +61,8 @@ def one(code, bulk, duration) -> dict:
 
 
 def accuracy(red, full) -> dict:
-    a, b = timeseries(pathlib.Path(red["dir"]) / "timeseries.csv"), \
-        timeseries(pathlib.Path(full["dir"]) / "timeseries.csv")
+    a, b = read_csv(pathlib.Path(red["dir"]) / "timeseries.csv"), \
+        read_csv(pathlib.Path(full["dir"]) / "timeseries.csv")
     n = min(a["crest_ux"].size, b["crest_ux"].size)
     err = float(np.max(np.abs(a["crest_ux"][:n] - b["crest_ux"][:n])))
     peak = float(np.max(np.abs(b["crest_ux"][:n])))

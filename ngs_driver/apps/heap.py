@@ -4,18 +4,15 @@ process).
 glibc serves a request of at least M_MMAP_THRESHOLD bytes with its own mmap, returned to the
 system when freed; but its *dynamic* threshold rises to the size of every mmapped block that is
 freed (up to 32 MiB), after which blocks of that size come from the heap, where freed memory
-stays with the process. A run frees and allocates factors of the effective matrix (~12 MB
-each, SuperLU's temporaries ~2x) at every re-pairing of a sliding joint and at every new
-sub-step size, so its resident set grew by ~15-20 MB at each of them: ``make run``'s ``run
-koyna_engineering`` peaked at 589-709 MiB (three runs, 2026-11-27).
+stays with the process. A run frees and allocates factors of the effective matrix at every
+re-pairing of a sliding joint and at every new sub-step size, so with the dynamic rule its
+resident set grew at each of them.
 
 Fixed thresholds (mallopt(3); setting one switches the dynamic rule off): blocks of 1 MiB and
 more are mmapped (the factors, their temporaries, the interface columns), smaller ones (a
 step's vectors: 12 198 DOFs x 8 B = 98 kB) come from the heap as before, and the heap's top is
-trimmed only above 32 MiB free. The trim threshold matters: with glibc's 128 KiB, the step's
-vectors were handed back and faulted in again every step (the Koyna 0.2x step 2.4 -> 2.9 ms
-median, measured). Measured (2026-11-27, `/usr/bin/time` of the command): 475 MiB peak (`run-paper koyna`: 482 MiB) with
-the results bitwise the same and the step unchanged within the host's noise (docs/run.md §6).
+trimmed only above 32 MiB free (with glibc's 128 KiB the step's vectors were handed back and
+faulted in again every step). What it changed, measured: docs/run.md §7 "The command's memory".
 A threshold the user set (``MALLOC_MMAP_THRESHOLD_`` or ``MALLOC_TRIM_THRESHOLD_`` in the
 environment, read by glibc itself) is left alone by the command; off glibc this does nothing.
 

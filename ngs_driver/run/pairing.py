@@ -16,6 +16,8 @@ import scipy.sparse as sp
 from ..fe.pairing import lower_faces, upper_columns
 from .parts import Part
 
+__all__ = ["JointPairing", "OPEN_GAP", "splice_rows"]
+
 
 def splice_rows(B, a, b, rows):
     """B (CSR) with its rows a..b-1 replaced by ``rows`` ((b - a) x ncol), as a new canonical
@@ -30,7 +32,6 @@ def splice_rows(B, a, b, rows):
     new.eliminate_zeros()
     return new
 
-__all__ = ["JointPairing", "OPEN_GAP", "splice_rows"]
 
 OPEN_GAP = 1.0        # m: the normal gap given to a point that has no face below it
 

@@ -375,9 +375,10 @@ class CondensedNewton:
         return wk
 
     def gmres_work(self, r):
-        """GMRES work arrays for an r x r system (allocated once; the kernel only writes)."""
+        """GMRES work arrays for an r x r system and GMRES_MAX iterations (allocated once,
+        again when either changes; the kernel only writes)."""
         wk = self._gmres_wk
-        if wk is None or wk[-1].shape[0] != r:
+        if wk is None or wk[-1].shape[0] != r or wk[3].shape[0] != GMRES_MAX:
             m = GMRES_MAX
             wk = (np.empty((m + 1, r)), np.empty((m, r)), np.empty((m + 1, m)), np.empty(m),
                   np.empty(m), np.empty(m + 1), np.empty(r))

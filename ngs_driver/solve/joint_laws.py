@@ -38,7 +38,27 @@ class JointLaws:
         return self.laws[0].initial_state(n, dim)
 
     def evaluate(self, gap, state, out=None, **kw):
-        n, dim = gap.shape
+        laws = self.laws
+        return self.gather(state, gap.shape, out,
+                           lambda i, sl: laws[i].evaluate(np.ascontiguousarray(gap[sl]),
+                                                          state.take(sl), **kw))
+
+    def bind(self, state, dt=None):
+        """``evaluate(gap, state, dt=dt)`` as a callable of the gap alone (as
+        ``InterfaceLaw.bind``): each joint's law bound to its slice of ``state`` once; the same
+        numbers as ``evaluate``."""
+        bound = tuple(law.bind(state.take(sl), dt) for law, sl in zip(self.laws, self.slices))
+
+        def call(gap):
+            gap = gap.reshape(-1, state.dim)
+            return self.gather(state, gap.shape, None,
+                               lambda i, sl: bound[i](np.ascontiguousarray(gap[sl])))
+        return call
+
+    def gather(self, state, shape, out, each):
+        """(traction, tangent, new state) over all points from ``each(i, slices[i])`` of every
+        joint i (into ``out``'s arrays when given, else new ones shaped as ``state``'s)."""
+        n, dim = shape
         if out is None:
             t = np.empty((n, dim))
             T = np.empty((n, dim, dim))
@@ -46,36 +66,13 @@ class JointLaws:
                                    for f in fields(InterfaceState)))
         else:
             t, T, new = out
-        for law, sl in zip(self.laws, self.slices):
-            ti, Ti, si = law.evaluate(np.ascontiguousarray(gap[sl]), state.take(sl), **kw)
+        for i, sl in enumerate(self.slices):
+            ti, Ti, si = each(i, sl)
             t[sl] = ti
             T[sl] = Ti
             for f in fields(InterfaceState):
                 getattr(new, f.name)[sl] = getattr(si, f.name)
         return t, T, new
-
-    def bind(self, state, dt=None):
-        """``evaluate(gap, state, dt=dt)`` as a callable of the gap alone (as
-        ``InterfaceLaw.bind``): each joint's law bound to its slice of ``state`` once; the same
-        numbers as ``evaluate``."""
-        bound = tuple(law.bind(state.take(sl), dt) for law, sl in zip(self.laws, self.slices))
-        slices = self.slices
-        names = [f.name for f in fields(InterfaceState)]
-
-        def call(gap):
-            gap = gap.reshape(-1, state.dim)
-            n, dim = gap.shape
-            t = np.empty((n, dim))
-            T = np.empty((n, dim, dim))
-            new = InterfaceState(*(np.empty_like(getattr(state, f)) for f in names))
-            for b, sl in zip(bound, slices):
-                ti, Ti, si = b(np.ascontiguousarray(gap[sl]))
-                t[sl] = ti
-                T[sl] = Ti
-                for f in names:
-                    getattr(new, f)[sl] = getattr(si, f)
-            return t, T, new
-        return call
 
 
 def law_stiffness(law, cracked: bool = False) -> tuple[float, float]:

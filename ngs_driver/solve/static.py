@@ -89,10 +89,7 @@ class StaticSolve:
                     pos = end
         cs.v = np.zeros(solver.ndof)
         cs.a = np.zeros(solver.ndof)
-        rep.n_active = int(cs.active.sum())
-        rep.wall = time.perf_counter() - t0
-        solver.history.append(rep)
-        return rep
+        return rep.finish(solver, cs, t0)
 
     def relax(self, solver, f):
         """Damped dynamics (the solver's own M, C, integrator and dt; no ground motion, no

@@ -53,6 +53,15 @@ class StepReport:
         if h is not None:
             self.dts.append(h)
 
+    def finish(self, solver, cs, t0):
+        """The end of a ``step``/``static`` call: the active points of the committed state
+        ``cs``, the wall time since t0, the report appended to the solver's history; returns
+        the report."""
+        self.n_active = int(cs.active.sum())
+        self.wall = time.perf_counter() - t0
+        solver.history.append(self)
+        return self
+
     def rejected(self, res):
         """Book an attempt that did not converge (its sub-step is cut)."""
         self.iterations_failed += res.iterations
@@ -130,10 +139,7 @@ class StepController:
             first = solver.attempt(dt, f_next)
             if first.ok and not self.friction_event(solver, first.state, 1):
                 self.commit(solver, dt, f_next, first, rep)
-                rep.n_active = int(cs.active.sum())
-                rep.wall = time.perf_counter() - t0
-                solver.history.append(rep)
-                return rep
+                return rep.finish(solver, cs, t0)
         pos = Fraction(0)
         hmax = Fraction(1, 2 ** int(split))
         hf = hmax
@@ -167,7 +173,4 @@ class StepController:
                         f"converge with the minimum sub-step {min_dt:.3g} s "
                         f"({rep.cuts} cuts; last relative residual {res.rnorm:.3e}); committed "
                         f"state is at t = {cs.time:.6g} s")
-        rep.n_active = int(cs.active.sum())
-        rep.wall = time.perf_counter() - t0
-        solver.history.append(rep)
-        return rep
+        return rep.finish(solver, cs, t0)
