@@ -75,8 +75,12 @@ def cli(cmd: str, scene: str, sets=(), extra=()) -> dict:
     shown = " ".join(["dam-seismic", cmd, scene] + [f"--set {s}" for s in sets])
     l0 = loadavg()
     t0 = time.perf_counter()
+    # the command as a user's shell runs it: without the MALLOC_* variables that Dask's nanny
+    # leaves in this process's environment once target 2 has run a cluster here (with them the
+    # command keeps glibc's choice, ngs_driver/apps/heap.py: 562-568 MB measured, not 487-495)
+    env = {k: v for k, v in os.environ.items() if not k.startswith("MALLOC_")}
     p = subprocess.run(argv, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True,
-                       cwd=ROOT)
+                       cwd=ROOT, env=env)
     d = {"command": shown, "loadavg": [l0, loadavg()], "wall_s": time.perf_counter() - t0,
          "outdir": str(od)}
     if p.returncode != 0:
