@@ -141,17 +141,9 @@ def prepared_koyna(overrides: list, prefix: str, scene: str = "koyna"):
     a = prepare(sc, out, outputs=RunOutputs(plots=False), progress=False,
                 log=lambda *x, **k: None)
     a.static()
-    solver_ms = []
-    step = a.solver.step
-
-    def timed(*args, **kw):
-        t0 = time.perf_counter()
-        try:
-            return step(*args, **kw)
-        finally:
-            solver_ms.append(1e3 * (time.perf_counter() - t0))
-    a.solver.step = timed
-    return a, solver_ms
+    timed = {}
+    timer(timed, a.solver, "step", "solver step")
+    return a, timed["solver step"]
 
 
 def measure(duration: float, elastic: bool = False, profile: str | None = None,
