@@ -10,6 +10,7 @@ ROOT = pathlib.Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT / "verification"))
 
 import newton_cost  # noqa: E402
+import step_cost  # noqa: E402
 import reduced_cost  # noqa: E402
 
 
@@ -44,3 +45,14 @@ def test_newton_cost_measures_a_short_reduced_run():
     assert 0.0 < r["newton_total_s"] <= r["loop_wall_s"]
     assert np.isfinite(r["step_median_ms"]) and r["step_median_ms"] > 0
     assert set(r["stats"]) >= {"jacobian_solves", "jacobian_factorisations"}
+
+
+def test_step_cost_times_every_step_and_its_parts():
+    """``verification/step_cost.py`` on koyna_smoke, 0.1 s (50 steps of 2 ms): each step is timed,
+    the solver's step is a part of the run's step, and one forward + backward solve is timed."""
+    r = step_cost.measure(0.1, parts=True, scene="koyna_smoke")
+    assert r["steps"] == 50
+    assert 0.0 < r["solver_step_median_ms"] <= r["run_step_median_ms"]
+    assert r["fwd_bwd_ms"] > 0 and r["ratio_median"] == pytest.approx(
+        r["run_step_median_ms"] / r["fwd_bwd_ms"], rel=1e-12)
+    assert r["parts_calls"]["run: energy budget"] == 50
