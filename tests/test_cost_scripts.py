@@ -56,3 +56,28 @@ def test_step_cost_times_every_step_and_its_parts():
     assert r["fwd_bwd_ms"] > 0 and r["ratio_median"] == pytest.approx(
         r["run_step_median_ms"] / r["fwd_bwd_ms"], rel=1e-12)
     assert r["parts_calls"]["run: energy budget"] == 50
+
+
+def test_step_cost_floor_groups_the_parts_and_forms_the_targets_ratios():
+    """``step_cost.floor_table`` on hand-made ``--parts`` medians: the factor's halves are the
+    four "factor:" parts, the water its solve and commit, "compiled" halves + products + water;
+    target 1's ratios are over fb = 0.5 ms, target 2's budget is 0.1 x the full step (0.2 ms).
+    Hand-computed: full compiled 0.4+0.3+0.1 = 0.8 ms = 1.6 fb, with Newton 0.3: 2.2 fb; the
+    reduced bulk 0.12 + 0.1 = 0.22 ms = 1.1 x the 0.2 ms budget."""
+    def m(halves, prod, water, newton, step, fb=0.5):
+        p = {"  factor: forward (+ low-rank)": halves / 2, "  factor: backward": halves / 4,
+             "  factor: backward at the interface": halves / 8,
+             "  factor: forward from the interface": halves / 8,
+             step_cost.PRODUCTS: prod, step_cost.WATER[0]: water / 2,
+             step_cost.WATER[1]: water / 2, step_cost.NEWTON: newton,
+             "run: energy budget": 0.05, "run: history row": 0.01, "run: stop rule": 0.02,
+             "solver: condensed Newton attempt": 9.0}       # a containing part: not summed
+        return {"parts_median_ms": p, "fwd_bwd_ms": fb, "run_step_median_ms": step}
+    t = step_cost.floor_table(m(0.4, 0.3, 0.1, 0.3, 2.0), m(0.12, 0.1, 0.06, 0.2, 0.8))
+    assert t["full"]["compiled"] == pytest.approx(0.8, rel=1e-12)
+    assert t["full"]["run_parts"] == pytest.approx(0.03, rel=1e-12)
+    assert t["full_compiled_over_fb"] == pytest.approx(1.6, rel=1e-12)
+    assert t["full_compiled_newton_over_fb"] == pytest.approx(2.2, rel=1e-12)
+    assert t["target2_step_budget_ms"] == pytest.approx(0.2, rel=1e-12)
+    assert t["reduced_bulk_over_budget"] == pytest.approx(1.1, rel=1e-12)
+    assert t["reduced_step_over_full_step"] == pytest.approx(0.4, rel=1e-12)

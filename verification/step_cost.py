@@ -31,8 +31,13 @@ subprocess with its own PYTHONPATH): the measurement above, frictional and elast
 whole command ``python -m ngs_driver run koyna ... --quiet`` timed from start to exit; prints
 each run and the medians (BENCHMARKS.md "A compiled step").
 
+``--floor --repeat N``: the Koyna 0.2x command with the full and the reduced bulk, alternated N
+times (subprocesses, ``--parts``), and the step's floor (``floor_table``): what its compiled
+parts alone cost against issue 32's targets 1 and 2 (BENCHMARKS.md "FAST (issue 32)").
+
     PYTHONPATH=/path/to/checkout python verification/step_cost.py [--duration 4]
     python verification/step_cost.py --compare /path/to/old/checkout --repeat 3
+    python verification/step_cost.py --floor --repeat 2
 """
 from __future__ import annotations
 
@@ -239,6 +244,69 @@ def compare(old: str, repeat: int, duration: float) -> dict:
     return med
 
 
+PRODUCTS = "run: step products (K u, M v; next rhs' M x, C y, C v)"
+WATER = ("  water: rhs (its own solve)", "  water: commit")
+NEWTON = "  Newton loop on the gaps"
+
+
+def floor_parts(m: dict) -> dict:
+    """One ``--parts`` measurement grouped [ms, medians]: the factor's halves (full and
+    partial), the step's products, the water's own solve and commit, the Newton loop on the
+    gaps, the energy budget, the run's other parts; ``compiled`` = halves + products + water
+    (the linear algebra of the step as it is formulated, each a compiled call)."""
+    p = m["parts_median_ms"]
+    g = {"halves": sum(v for k, v in p.items() if k.strip().startswith("factor:")),
+         "products": p[PRODUCTS],
+         "water": sum(p.get(k, 0.0) for k in WATER),
+         "newton": p[NEWTON],
+         "energy": p["run: energy budget"],
+         "run_parts": sum(v for k, v in p.items()
+                          if k.startswith("run:") and k not in (PRODUCTS, "run: energy budget"))}
+    g["compiled"] = g["halves"] + g["products"] + g["water"]
+    return g
+
+
+def floor_table(full: dict, reduced: dict) -> dict:
+    """The floors of issue 32's targets from one full-bulk and one reduced-bulk ``--parts``
+    measurement of the same command:
+
+    * target 1 (full step <= 2.5 fb): the full step's compiled parts, and those plus its
+      Newton loop, over one forward + backward solve (fb) -- what the step would cost with no
+      Python between the calls, no energy budget and no bookkeeping;
+    * target 2 (reduced loop <= 0.1 x the full loop): the reduced step's bulk alone (its
+      factor's halves and its products: the Craig-Bampton matrices, dense on the joints' DOFs)
+      against 0.1 x the full step's median."""
+    f, r = floor_parts(full), floor_parts(reduced)
+    fb = full["fwd_bwd_ms"]
+    budget2 = 0.1 * full["run_step_median_ms"]
+    return {"full": f, "reduced": r, "fwd_bwd_ms": fb,
+            "full_step_over_fb": full["run_step_median_ms"] / fb,
+            "full_compiled_over_fb": f["compiled"] / fb,
+            "full_compiled_newton_over_fb": (f["compiled"] + f["newton"]) / fb,
+            "target2_step_budget_ms": budget2,
+            "reduced_bulk_ms": r["halves"] + r["products"],
+            "reduced_bulk_over_budget": (r["halves"] + r["products"]) / budget2,
+            "reduced_step_over_full_step": (reduced["run_step_median_ms"]
+                                            / full["run_step_median_ms"])}
+
+
+def floor(repeat: int, duration: float) -> list:
+    """``--floor``: full and reduced bulk alternated ``repeat`` times, each a subprocess of
+    this script with ``--parts``; one ``floor_table`` per round (printed as JSON lines)."""
+    out = []
+    for i in range(repeat):
+        m = {}
+        for bulk in ("full", "reduced"):
+            _, o = _sub(HERE, [__file__, "--duration", str(duration), "--parts",
+                               "--set", f"solver.bulk={bulk}"])
+            m[bulk] = json.loads(o.strip().splitlines()[-1])
+        row = {"round": i, **floor_table(m["full"], m["reduced"]),
+               "load": [m["full"]["load_start"], m["reduced"]["load_end"]]}
+        print(json.dumps(row), flush=True)
+        out.append(row)
+    return out
+
+
 def main(argv=None):
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--duration", type=float, default=4.0)
@@ -246,12 +314,15 @@ def main(argv=None):
     p.add_argument("--profile", default=None)
     p.add_argument("--parts", action="store_true")
     p.add_argument("--compare", default=None)
+    p.add_argument("--floor", action="store_true")
     p.add_argument("--repeat", type=int, default=3)
     p.add_argument("--scene", default="koyna")
     p.add_argument("--set", action="append", default=[], dest="extra", metavar="KEY=VALUE")
     args = p.parse_args(argv)
     if args.compare:
         return compare(args.compare, args.repeat, args.duration)
+    if args.floor:
+        return floor(args.repeat, args.duration)
     load0 = os.getloadavg()[0]
     r = measure(args.duration, args.elastic, args.profile, args.parts, args.scene, args.extra)
     r["load_start"], r["load_end"] = load0, os.getloadavg()[0]
