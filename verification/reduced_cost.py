@@ -15,7 +15,9 @@ ground_motion.scale=0.2 --set interface.friction=0.8`` (whole record unless ``--
   crack (``crack_length_heel``) difference against one heel element (``mesh.h_heel``).
 
 Ratios (target 2): reduced loop / full loop (<= 0.1), reduced whole run / old whole run
-(<= 0.25), from the medians over ``--repeat`` rounds. Prints a JSON line per run and the medians;
+(<= 0.25), from the medians over ``--repeat`` rounds; and the reduced command's time outside
+its loop (whole - loop: the interpreter, imports, mesh, reduction, static state, figures) over
+the old whole run, the whole-run ratio the reduced command would have with a loop of no cost. Prints a JSON line per run and the medians;
 ``--out`` writes ``reduced_cost.json`` and ``reduced_cost.md``.
 
     python verification/reduced_cost.py --old /work/wt/old860 --repeat 3 --out D
@@ -54,7 +56,7 @@ def one(code, bulk, duration) -> dict:
     wall = time.perf_counter() - t0
     s = json.loads((pathlib.Path(d) / "summary.json").read_text())
     return {"code": str(code), "bulk": bulk or "full (old code)", "whole_s": wall,
-            "loop_s": s["timings"]["dynamic"], "step_median_ms": 1e3 * s["timings"].get(
+            "loop_s": s["timings"]["dynamic"], "outside_s": wall - s["timings"]["dynamic"], "step_median_ms": 1e3 * s["timings"].get(
                 "per_step_median", float("nan")), "dofs": (s.get("dofs") or {}).get("nfree"),
             "modes": ((s.get("mesh") or {}).get("bulk") or {}).get("modes_kept"),
             "h_heel": s["scene"]["mesh"]["h_heel"], "load_1min": load, "dir": d}
@@ -98,10 +100,12 @@ def main(argv=None) -> dict:
             runs.append(r)
             print(json.dumps(r), flush=True)
     med = {t: {k: float(np.median([r[k] for r in runs if r["which"] == t]))
-               for k in ("whole_s", "loop_s", "step_median_ms")} for t in ("reduced", "full", "old")}
+               for k in ("whole_s", "loop_s", "outside_s", "step_median_ms")}
+           for t in ("reduced", "full", "old")}
     res = {"medians": med,
            "loop_reduced_over_full": med["reduced"]["loop_s"] / med["full"]["loop_s"],
            "whole_reduced_over_old": med["reduced"]["whole_s"] / med["old"]["whole_s"],
+           "outside_reduced_over_old": med["reduced"]["outside_s"] / med["old"]["whole_s"],
            "runs": runs, "old": a.old, "duration": a.duration, "repeat": a.repeat}
     print(json.dumps({k: v for k, v in res.items() if k != "runs"}))
     if a.out:
@@ -119,7 +123,8 @@ def main(argv=None) -> dict:
                      f"{acc} | {r['load_1min']:.2f} |")
         L += ["", f"Medians: reduced loop / full loop = {res['loop_reduced_over_full']:.3f} "
               f"(target ≤ 0.1); reduced whole run / old whole run = "
-              f"{res['whole_reduced_over_old']:.3f} (target ≤ 0.25)."]
+              f"{res['whole_reduced_over_old']:.3f} (target ≤ 0.25); the reduced run outside "
+              f"its loop / old whole run = {res['outside_reduced_over_old']:.3f}."]
         (out / "reduced_cost.md").write_text("\n".join(L) + "\n")
     return res
 
