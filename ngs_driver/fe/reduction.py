@@ -51,13 +51,14 @@ BULKS = ("full", "reduced")
 # interior parts up to this many DOFs get every mode from a dense eigensolver (eigsh needs
 # k < n): the reduced bulk with every mode kept is then the full bulk (tests)
 DENSE_EIG = 1500
-# the most modes a cut-off (solver.bulk_cutoff_hz) may keep, and the most eigsh is asked for
-# while it looks for the cut-off: a cut-off that needs more is refused (docs/reduced_bulk.md
-# sec. 4). eigsh's cost grows ~k^2: on Koyna's rock interior (8 922 DOFs) k = 256, 512, 1024
-# took 3.4, 12.8, 49 s (2026-11-27, 2 cores, load ~2-3; peak RSS 423 and 572 MB with the
-# model), so 512 bounds a refused cut-off's search at about one reduced Koyna run; the
-# shipped scenes' cut-off at the resolved frequency (setup/bulk.py) keeps at most 167 modes
-# (Koyna, 136.4 Hz). Below DENSE_EIG: every part eigsh solves has more modes than this.
+# the most modes eigsh is asked for while it looks for a cut-off (solver.bulk_cutoff_hz): a
+# cut-off at or above the mesh's MAX_CUTOFF_MODES-th fixed-interface mode (it would keep this
+# many or more) is refused (docs/reduced_bulk.md sec. 4); a part that gives this many modes
+# all below the cut-off proves it. eigsh's cost grows ~k^2: on Koyna's rock interior (8 922
+# DOFs) k = 256, 512, 1024 took 3.4, 12.8, 49 s (2026-11-27, 2 cores, load ~2-3; peak RSS 423
+# and 572 MB with the model), so 512 bounds a refused cut-off's search at about one reduced
+# Koyna run; the shipped scenes' cut-off at the resolved frequency (setup/bulk.py) keeps at
+# most 167 modes (Koyna, 136.4 Hz). Below DENSE_EIG: every part eigsh solves has more modes.
 MAX_CUTOFF_MODES = 512
 
 
@@ -292,7 +293,8 @@ def _modes(parts, Mii, n_modes, cutoff_hz):
     """Fixed-interface modes of (K_ii, M_ii), each connected part with
     mass (``_mass_parts``: a dam block, the rock) on its own (a cut-off through a degenerate
     pair then never mixes two regions), the lowest ``n_modes`` kept, or every one below
-    ``cutoff_hz`` (> 0), at most MAX_CUTOFF_MODES of them (ValueError naming the key)."""
+    ``cutoff_hz`` (> 0) if that is below the mesh's MAX_CUTOFF_MODES-th mode (else ValueError
+    naming the key)."""
     n_rows = Mii.shape[0]
     if not parts:
         key = (f"solver.bulk_cutoff_hz = {cutoff_hz!r}" if cutoff_hz > 0 else
@@ -338,16 +340,17 @@ def _modes(parts, Mii, n_modes, cutoff_hz):
     o = np.argsort(lam, kind="stable")
     lam, V = lam[o], V[:, o]
     f = np.sqrt(np.maximum(lam, 0.0)) / (2 * np.pi)
-    if cutoff_hz > 0 and (capped or np.count_nonzero(f <= cutoff_hz) > MAX_CUTOFF_MODES):
-        # every part holds each of its modes up to the ceiling's frequency (a part either
-        # passed the cut-off, or gave its lowest MAX_CUTOFF_MODES, or all it has): f's
-        # MAX_CUTOFF_MODES-th entry is the mesh's
+    if cutoff_hz > 0 and (capped or np.count_nonzero(f <= cutoff_hz) >= MAX_CUTOFF_MODES):
+        # the cut-off is at or above the mesh's MAX_CUTOFF_MODES-th mode: every part holds
+        # each of its modes up to that mode's frequency (a part either passed the cut-off, or
+        # gave its lowest MAX_CUTOFF_MODES, or every mode it has), so f's entry is the mesh's
         reach = f[min(MAX_CUTOFF_MODES, f.size) - 1]
-        raise ValueError(f"solver.bulk_cutoff_hz = {cutoff_hz!r}: keeps more than "
-                         f"{MAX_CUTOFF_MODES} fixed-interface modes (the ceiling, "
-                         f"fe/reduction.py MAX_CUTOFF_MODES); on this mesh the "
-                         f"{MAX_CUTOFF_MODES} lowest reach {reach:.6g} Hz; allowed: a cut-off "
-                         f"below {reach:.6g} Hz, or solver.bulk_modes (a count; no cut-off), "
+        avail = sum(_part_modes(idx.size) for idx, _, _ in parts)
+        raise ValueError(f"solver.bulk_cutoff_hz = {cutoff_hz!r}: at or above this mesh's "
+                         f"{MAX_CUTOFF_MODES}th fixed-interface mode ({reach:.6g} Hz), the "
+                         f"most a cut-off may reach (fe/reduction.py MAX_CUTOFF_MODES: eigsh "
+                         f"is asked for no more modes); allowed: a cut-off below {reach:.6g} "
+                         f"Hz, or solver.bulk_modes = a count (1 .. {avail}) with no cut-off, "
                          "or solver.bulk = 'full'")
     keep = f <= cutoff_hz if cutoff_hz > 0 else np.arange(lam.size) < n_modes
     V = V[:, keep]
@@ -361,8 +364,8 @@ def _modes(parts, Mii, n_modes, cutoff_hz):
 def reduce_model(model, n_modes: int = 40, cutoff_hz: float = 0.0):
     """The model on its Craig-Bampton basis (module docstring): the lowest ``n_modes``
     fixed-interface modes (at most ``available_modes(model)``), or (``cutoff_hz`` > 0) every
-    mode up to that frequency (at most MAX_CUTOFF_MODES of them); ValueError naming the key,
-    the value and what is allowed otherwise."""
+    mode up to that frequency (below the mesh's MAX_CUTOFF_MODES-th mode); ValueError naming
+    the key, the value and what is allowed otherwise."""
     if model.rock_sides == "absorbing":
         raise ValueError("solver.bulk = 'reduced' with geometry.rock_sides = 'absorbing': not "
                          "supported; allowed: rock_sides 'fixed' | 'roller' | 'free'")
