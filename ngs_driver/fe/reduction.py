@@ -55,10 +55,10 @@ DENSE_EIG = 1500
 # cut-off at or above the mesh's MAX_CUTOFF_MODES-th fixed-interface mode (it would keep this
 # many or more) is refused (docs/reduced_bulk.md sec. 4); a part that gives this many modes
 # all below the cut-off proves it. eigsh's cost grows ~k^2: on Koyna's rock interior (8 922
-# DOFs) k = 256, 512, 1024 took 3.4, 12.8, 49 s (2026-11-27, 2 cores, load ~2-3; peak RSS 423
-# and 572 MB with the model), so 512 bounds a refused cut-off's search at about one reduced
-# Koyna run; the shipped scenes' cut-off at the resolved frequency (setup/bulk.py) keeps at
-# most 167 modes (Koyna, 136.4 Hz). Below DENSE_EIG: every part eigsh solves has more modes.
+# DOFs) k = 256, 512, 1024 took 3.4, 12.8, 49 s (2026-11-27, 2 cores, load ~2-3; peak RSS 423 MB
+# up to k = 512, 572 MB at 1024, with the model), so 512 bounds a refused search at about one
+# reduced Koyna run; the shipped scenes' cut-off at the resolved frequency (setup/bulk.py) keeps
+# at most 167 modes (Koyna, 136.4 Hz). Below DENSE_EIG: every part eigsh solves has more modes.
 MAX_CUTOFF_MODES = 512
 
 
