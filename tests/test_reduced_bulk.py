@@ -23,7 +23,8 @@ from ngs_driver.apps.dam import RunInterrupted, run  # noqa: E402
 from ngs_driver.cli import main  # noqa: E402
 from ngs_driver.fe.blocks import block_rigid_modes  # noqa: E402
 from ngs_driver.fe.model import build_from_scene  # noqa: E402
-from ngs_driver.fe.reduction import ReducedCoordinates, reduce_model  # noqa: E402
+from ngs_driver.fe.reduction import (ReducedCoordinates, available_modes,  # noqa: E402
+                                     reduce_model)
 from ngs_driver.post.files import read_csv  # noqa: E402
 from ngs_driver.run.analysis import prepare  # noqa: E402
 from ngs_driver.scene import load_scene  # noqa: E402
@@ -51,7 +52,7 @@ def test_every_mode_kept_equals_full_variants(tmp_path, sets):
     test_every_mode_kept_equals_full below (measured below 1e-12 of the peak)."""
     sc = load_scene(SMOKE, sets)
     full = build_from_scene(sc)
-    red = reduce_model(full, n_modes=10 ** 6)
+    red = reduce_model(full, n_modes=available_modes(full))
     run(sc, tmp_path / "full", progress=False, model=full, plots=False)
     s = run(sc, tmp_path / "red", progress=False, model=red, plots=False)
     if "reservoir" in sets[0]:
@@ -98,7 +99,7 @@ def test_every_mode_kept_equals_full(tmp_path, smoke_model):
     peak: the Newton tolerance is 1e-8 on the gaps; the two runs differ by the factorisation's
     round-off only (dense Cholesky against sparse LDL^T)."""
     sc = load_scene(SMOKE)
-    red = reduce_model(smoke_model, n_modes=10 ** 6)
+    red = reduce_model(smoke_model, n_modes=available_modes(smoke_model))
     assert isinstance(red, ReducedCoordinates) and red.nfree == smoke_model.nfree
     sf = run(sc, tmp_path / "full", progress=False, model=smoke_model, plots=False)
     sr = run(sc, tmp_path / "red", progress=False, model=red, plots=False)

@@ -44,12 +44,22 @@ from scipy.sparse.csgraph import connected_components
 
 from .pairing import lower_faces
 
-__all__ = ["Reduction", "FullBulk", "ReducedCoordinates", "reduce_model", "boundary_dofs", "BULKS"]
+__all__ = ["Reduction", "FullBulk", "ReducedCoordinates", "reduce_model", "boundary_dofs",
+           "available_modes", "BULKS", "DENSE_EIG", "MAX_CUTOFF_MODES"]
 
 BULKS = ("full", "reduced")
 # interior parts up to this many DOFs get every mode from a dense eigensolver (eigsh needs
 # k < n): the reduced bulk with every mode kept is then the full bulk (tests)
 DENSE_EIG = 1500
+# the most modes eigsh is asked for while it looks for a cut-off (solver.bulk_cutoff_hz): a
+# cut-off at or above the mesh's MAX_CUTOFF_MODES-th fixed-interface mode (it would keep this
+# many or more) is refused (docs/reduced_bulk.md sec. 4); a part that gives this many modes
+# all below the cut-off proves it. eigsh's cost grows ~k^2: on Koyna's rock interior (8 922
+# DOFs) k = 256, 512, 1024 took 3.4, 12.8, 49 s (2026-11-27, 2 cores, load ~2-3; peak RSS 423 MB
+# up to k = 512, 572 MB at 1024, with the model), so 512 bounds a refused search at about one
+# reduced Koyna run; the shipped scenes' cut-off at the resolved frequency (setup/bulk.py) keeps
+# at most 167 modes (Koyna, 136.4 Hz). Below DENSE_EIG: every part eigsh solves has more modes.
+MAX_CUTOFF_MODES = 512
 
 
 @dataclass
@@ -224,21 +234,79 @@ def _spd_lu(A):
                     options=dict(SymmetricMode=True))
 
 
-def _modes(Kii, Mii, n_modes, cutoff_hz):
-    """Fixed-interface modes of (K_ii, M_ii), each connected part of the interior (a dam
-    block, the rock) on its own (a cut-off through a degenerate pair then never mixes two
-    regions), the lowest ``n_modes`` kept, or every one below ``cutoff_hz`` (> 0)."""
+def _mass_parts(Kii, Mii) -> list:
+    """The connected parts of the interior (a dam block, the rock) that have mass, in the
+    order of ``connected_components``: (indices, K_cc, M_cc) each. A massless part (a
+    massless rock) has no dynamics and no mode."""
     ncomp, lab = connected_components(Kii, directed=False)
-    vecs, lams = [], []
+    parts = []
     for c in range(ncomp):
         idx = np.flatnonzero(lab == c)
         Kc = Kii[idx][:, idx].tocsc()
         Mc = Mii[idx][:, idx].tocsc()
         if Mc.nnz == 0 or not np.any(Mc.diagonal() > 0):
             continue                                   # massless (no dynamics)
+        parts.append((idx, Kc, Mc))
+    return parts
+
+
+def _part_modes(n: int) -> int:
+    """The modes a part of n DOFs can give: all from the dense eigensolver (n <= DENSE_EIG),
+    at most n - 1 from eigsh (it needs k < n)."""
+    return n if n <= DENSE_EIG else n - 1
+
+
+def _interior(model):
+    """(boundary DOFs, interior DOFs, K_ii, M_ii) of the model's free DOFs."""
+    b = boundary_dofs(model)
+    inner = np.ones(model.nfree, bool)
+    inner[b] = False
+    i = np.flatnonzero(inner)
+    K, M = model.K.tocsr(), model.M.tocsr()
+    return b, i, K[i][:, i].tocsc(), M[i][:, i].tocsr()
+
+
+def available_modes(model) -> int:
+    """The number of fixed-interface modes the model's interior can give: the upper end of
+    ``solver.bulk_modes`` on this mesh (the sum over the interior's parts with mass of each
+    part's modes, ``_part_modes``)."""
+    _, _, Kii, Mii = _interior(model)
+    return sum(_part_modes(idx.size) for idx, _, _ in _mass_parts(Kii, Mii))
+
+
+def _check_count(parts, n_modes: int) -> None:
+    """solver.bulk_modes above the modes the interior has: refused (before any eigensolve)."""
+    sizes = [idx.size for idx, _, _ in parts]
+    avail = sum(_part_modes(n) for n in sizes)
+    if n_modes <= avail:
+        return
+    if avail == 0:
+        raise ValueError(f"solver.bulk_modes = {n_modes!r}: this mesh's interior has no mass "
+                         "(no fixed-interface mode); allowed: solver.bulk = 'full'")
+    raise ValueError(f"solver.bulk_modes = {n_modes!r}: more than the {avail} fixed-interface "
+                     f"modes this mesh's interior has (its parts with mass: "
+                     f"{' + '.join(str(n) for n in sizes)} DOFs); allowed: 1 .. {avail}, or "
+                     "solver.bulk = 'full'")
+
+
+def _modes(parts, Mii, n_modes, cutoff_hz):
+    """Fixed-interface modes of (K_ii, M_ii), each connected part with
+    mass (``_mass_parts``: a dam block, the rock) on its own (a cut-off through a degenerate
+    pair then never mixes two regions), the lowest ``n_modes`` kept, or every one below
+    ``cutoff_hz`` (> 0) if that is below the mesh's MAX_CUTOFF_MODES-th mode (else ValueError
+    naming the key)."""
+    n_rows = Mii.shape[0]
+    if not parts:
+        key = (f"solver.bulk_cutoff_hz = {cutoff_hz!r}" if cutoff_hz > 0 else
+               f"solver.bulk_modes = {n_modes!r}")
+        raise ValueError(f"{key}: this mesh's interior has no mass (no fixed-interface mode); "
+                         "allowed: solver.bulk = 'full'")
+    vecs, lams = [], []
+    capped = False                        # a part's search stopped at the ceiling
+    for idx, Kc, Mc in parts:
         if idx.size <= DENSE_EIG:                      # small: every mode, dense
             lam, X = sla.eigh(Kc.toarray(), Mc.toarray())
-            Vc = np.zeros((Kii.shape[0], lam.size))
+            Vc = np.zeros((n_rows, lam.size))
             Vc[idx] = X
             vecs.append(Vc)
             lams.append(lam)
@@ -246,6 +314,8 @@ def _modes(Kii, Mii, n_modes, cutoff_hz):
         luc = _spd_lu(Kc)
         op = spl.LinearOperator(Kc.shape, matvec=luc.solve, dtype=np.float64)
         top = idx.size - 1                             # eigsh needs k < n
+        if cutoff_hz > 0:                              # never more than the ceiling
+            top = min(top, MAX_CUTOFF_MODES)
         kk = min(top, 32 if cutoff_hz > 0 else n_modes)
         while True:
             # a fixed start vector: the same basis when a run is resumed; pseudo-random, not
@@ -254,11 +324,14 @@ def _modes(Kii, Mii, n_modes, cutoff_hz):
             lam, X = spl.eigsh(Kc, k=kk, M=Mc, sigma=0.0, which="LM", OPinv=op, v0=v0)
             o = np.argsort(lam)
             lam, X = lam[o], X[:, o]
-            if (cutoff_hz <= 0 or kk >= top
-                    or np.sqrt(max(lam[-1], 0.0)) / (2 * np.pi) > cutoff_hz):
+            passed = np.sqrt(max(lam[-1], 0.0)) / (2 * np.pi) > cutoff_hz
+            if cutoff_hz <= 0 or passed:
+                break
+            if kk >= top:
+                capped = True
                 break
             kk = min(2 * kk, top)
-        Vc = np.zeros((Kii.shape[0], lam.size))
+        Vc = np.zeros((n_rows, lam.size))
         Vc[idx] = X
         vecs.append(Vc)
         lams.append(lam)
@@ -267,6 +340,18 @@ def _modes(Kii, Mii, n_modes, cutoff_hz):
     o = np.argsort(lam, kind="stable")
     lam, V = lam[o], V[:, o]
     f = np.sqrt(np.maximum(lam, 0.0)) / (2 * np.pi)
+    if cutoff_hz > 0 and (capped or np.count_nonzero(f <= cutoff_hz) >= MAX_CUTOFF_MODES):
+        # the cut-off is at or above the mesh's MAX_CUTOFF_MODES-th mode: every part holds
+        # each of its modes up to that mode's frequency (a part either passed the cut-off, or
+        # gave its lowest MAX_CUTOFF_MODES, or every mode it has), so f's entry is the mesh's
+        reach = f[min(MAX_CUTOFF_MODES, f.size) - 1]
+        avail = sum(_part_modes(idx.size) for idx, _, _ in parts)
+        raise ValueError(f"solver.bulk_cutoff_hz = {cutoff_hz!r}: at or above this mesh's "
+                         f"{MAX_CUTOFF_MODES}th fixed-interface mode ({reach:.6g} Hz), the "
+                         f"most a cut-off may reach (fe/reduction.py MAX_CUTOFF_MODES: eigsh "
+                         f"is asked for no more modes); allowed: a cut-off below {reach:.6g} "
+                         f"Hz, or solver.bulk_modes = a count (1 .. {avail}) with no cut-off, "
+                         "or solver.bulk = 'full'")
     keep = f <= cutoff_hz if cutoff_hz > 0 else np.arange(lam.size) < n_modes
     V = V[:, keep]
     # M_ii-normalised (eigsh's are, to round-off): normalise again, and the sign fixed (the
@@ -278,24 +363,24 @@ def _modes(Kii, Mii, n_modes, cutoff_hz):
 
 def reduce_model(model, n_modes: int = 40, cutoff_hz: float = 0.0):
     """The model on its Craig-Bampton basis (module docstring): the lowest ``n_modes``
-    fixed-interface modes, or (``cutoff_hz`` > 0) every mode up to that frequency."""
+    fixed-interface modes (at most ``available_modes(model)``), or (``cutoff_hz`` > 0) every
+    mode up to that frequency (below the mesh's MAX_CUTOFF_MODES-th mode); ValueError naming
+    the key, the value and what is allowed otherwise."""
     if model.rock_sides == "absorbing":
         raise ValueError("solver.bulk = 'reduced' with geometry.rock_sides = 'absorbing': not "
                          "supported; allowed: rock_sides 'fixed' | 'roller' | 'free'")
     if n_modes < 1 and cutoff_hz <= 0:
         raise ValueError(f"solver.bulk_modes = {n_modes!r}: keeps no mode; allowed: >= 1")
-    b = boundary_dofs(model)
+    b, i, Kii, Mii = _interior(model)
     n = model.nfree
-    inner = np.ones(n, bool)
-    inner[b] = False
-    i = np.flatnonzero(inner)
     K, M = model.K.tocsr(), model.M.tocsr()
-    Kii = K[i][:, i].tocsc()
+    parts = _mass_parts(Kii, Mii)
+    if cutoff_hz <= 0:                       # the count against the mesh, before any solve
+        _check_count(parts, int(n_modes))
     Kib = K[i][:, b].tocsr()
-    Mii = M[i][:, i].tocsr()
     Mib = M[i][:, b].tocsr()
     lu = _spd_lu(Kii)
-    V, f = _modes(Kii, Mii, int(n_modes), float(cutoff_hz))
+    V, f = _modes(parts, Mii, int(n_modes), float(cutoff_hz))
     if V.shape[1] == 0:
         raise ValueError(f"solver.bulk_cutoff_hz = {cutoff_hz!r}: keeps no mode (the lowest "
                          "fixed-interface mode is above it); allowed: a higher cut-off")
