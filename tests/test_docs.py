@@ -1,5 +1,6 @@
 """The docs stay honest: every repository path they name exists, every relative link resolves,
-and no page carries the history that belongs in CHANGELOG.md.
+every section a link names (``[run.md](run.md) §4``) is a numbered heading of that page, and no
+page carries the history that belongs in CHANGELOG.md.
 
 Reads README.md and docs/*.md (no imports of the project, no subprocess: well under a second).
 A *path* is a token of a code span (`...`) or of a fenced code block that
@@ -119,6 +120,32 @@ def test_no_history_markers(page):
     assert not found, f"{page.name} contains {found}"
 
 
+SECTION_REF = re.compile(r"\[[^\]]*\]\(([^)\s#]+\.md)\)\s*§\s*(\d+(?:\.\d+)*)")
+HEADING_NUMBER = re.compile(r"^#+\s+(\d+(?:\.\d+)*)[.\s]", re.M)
+
+
+def _section_numbers(path):
+    """The numbers of a page's numbered headings ("## 4. The collapse rule" -> "4")."""
+    return set(HEADING_NUMBER.findall(path.read_text(encoding="utf-8")))
+
+
+def _bad_section_refs(page, text):
+    bad = []
+    for target, number in SECTION_REF.findall(FENCE.sub("", text)):
+        path = page.parent / target
+        if path.exists() and number not in _section_numbers(path):
+            bad.append(f"{target} §{number}")
+    return bad
+
+
+@pytest.mark.parametrize("page", PAGES, ids=lambda p: p.relative_to(ROOT).as_posix())
+def test_section_references_resolve(page):
+    """``[run.md](run.md) §4``: the linked page has a heading numbered 4 (a renumbered page
+    shows here)."""
+    bad = _bad_section_refs(page, page.read_text(encoding="utf-8"))
+    assert not bad, f"{page.name} refers to sections that do not exist: {bad}"
+
+
 def test_the_checker_catches_what_it_should():
     """The checker itself: a wrong path, a partial path, a bad link are found; outputs and
     placeholders are not paths."""
@@ -132,6 +159,9 @@ def test_the_checker_catches_what_it_should():
     for tok in ("m/s2", "2/3-same", "tcp://HOST:8786", "/tmp/x.py", "--out", "g_T/|g_T|"):
         assert not _is_path(tok), tok
     assert _exists("results/koyna_alpha2/") and _exists("verification/out/REPORT.md")
+    page = ROOT / "docs" / "any.md"                   # a page in docs/: its links are relative
+    assert _bad_section_refs(page, "[run.md](run.md) §4 and [law.md](law.md) §6.5") == []
+    assert _bad_section_refs(page, "[run.md](run.md) §42") == ["run.md §42"]
 
 
 def test_architecture_table_names_files_of_their_stage():
