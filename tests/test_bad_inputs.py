@@ -156,6 +156,9 @@ SCENES = [
     (["time.dt=0.5", "time.duration=0.1"],
      r"time.dt = 0.5 with time.duration = 0.1: no time step fits in the duration; allowed: "
      r"time.dt <= time.duration"),
+    (["time.dt=1e-9"],                     # 1e10 steps: the resampled record would take 75 GB
+     r"time.dt = 1e-09 with time.duration = 10.0: 1e\+10 time steps; allowed: at most 1e\+07 "
+     r"steps, i.e. time.dt >= 1e-06 for this duration"),
     (["time.dt=0.004", "time.duration=0.01"],
      r"time.duration = 0.01 with time.dt = 0.004: 2.5 steps, not a whole number; allowed: a "
      r"whole number of steps, e.g. time.duration = 0.008 or 0.012"),
