@@ -331,6 +331,25 @@ def test_ida_out_that_is_a_file(tmp_path):
                 workers=1)
 
 
+def test_ida_lists_name_what_is_allowed(tmp_path, capsys):
+    """A mistyped --levels or --records: exit 2, the option, the value and what is allowed, and
+    the study folder not created."""
+    out = tmp_path / "study"
+    base = ["ida", "koyna_smoke", "--suite", "fema-p695-farfield", "--components", "a",
+            "--im", "pga", "--out", str(out)]
+    cases = [(["--records", "1", "--levels", "0.1,abc"],
+              "--levels '0.1,abc': 'abc' is not a valid value; allowed: comma-separated "
+              "numbers, e.g. 0.05,0.1,0.2"),
+             (["--records", "1,x", "--levels", "0.1"],
+              "--records '1,x': 'x' is not a valid value; allowed: comma-separated integers"),
+             (["--records", "1", "--levels", ","],
+              "--levels ',': empty list; allowed: comma-separated numbers")]
+    for extra, msg in cases:
+        rc, _, err = _dry(base + extra, capsys)
+        assert rc == 2 and msg in err, (extra, err)
+    assert not out.exists()
+
+
 def test_resume_with_another_scene_names_the_key(tmp_path, capsys):
     """--resume (with --dry-run too) against a checkpoint of another scene: exit 2 naming the
     first key that differs, with both values."""
