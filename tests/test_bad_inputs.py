@@ -350,6 +350,18 @@ def test_ida_lists_name_what_is_allowed(tmp_path, capsys):
     assert not out.exists()
 
 
+def test_run_paper_refuses_an_alpha_of_its_own(tmp_path, capsys):
+    """run-paper sets interface.alpha to 2 and 1: a --set of it (even a bad value) would be
+    replaced without a word; exit 2 naming the key, nothing created."""
+    out = tmp_path / "paper"
+    for value in ("1.5", "abc"):
+        rc, _, err = _dry(["run-paper", "koyna_smoke", "--dry-run", "--set",
+                           f"interface.alpha={value}", "--out", str(out)], capsys)
+        assert rc == 2 and (f"--set 'interface.alpha={value}': run-paper sets interface.alpha "
+                            "itself (2.0, then 1.0); allowed: any other key") in err, err
+    assert not out.exists()
+
+
 def test_resume_with_another_scene_names_the_key(tmp_path, capsys):
     """--resume (with --dry-run too) against a checkpoint of another scene: exit 2 naming the
     first key that differs, with both values."""
