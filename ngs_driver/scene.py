@@ -659,19 +659,23 @@ def parse_override(item: str) -> tuple[list[str], Any]:
     """'a.b.c=value' -> (['a','b','c'], value).  value is a TOML literal (1e9, true,
     "rigid", [1, 3]); a bare word that is not valid TOML is taken as a string."""
     if "=" not in item:
-        raise ValueError(f"--set {item!r}: expected KEY.PATH=VALUE")
+        raise ValueError(f"--set {item!r}: expected KEY.PATH=VALUE, e.g. "
+                         "interface.friction=0.8")
     key, _, sval = item.partition("=")
     key, sval = key.strip(), sval.strip()
     parts = key.split(".")
     if not key or any(not p for p in parts):
-        raise ValueError(f"--set {item!r}: bad key path {key!r}")
+        raise ValueError(f"--set {item!r}: bad key path {key!r}; allowed: section.key, "
+                         "e.g. interface.friction")
     try:
         val = tomllib.loads(f"v = {sval}")["v"]
     except tomllib.TOMLDecodeError:
         if sval and all(c.isalnum() or c in "_-./" for c in sval):
             val = sval
         else:
-            raise ValueError(f"--set {item!r}: value {sval!r} is not a TOML literal") from None
+            raise ValueError(f"--set {item!r}: value {sval!r} is not a TOML literal; allowed: "
+                             "e.g. 0.8 (a decimal point, not a comma), true, '\"rigid\"', "
+                             "[1, 3]") from None
     return parts, val
 
 

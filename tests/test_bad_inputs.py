@@ -122,6 +122,8 @@ SCENES = [
     (["materials.plane=1"], r"materials.plane = 1: wrong type"),
     (["mesh.h_heel"], r"expected KEY.PATH=VALUE"),
     (["mesh.h_heel=[1,"], r"is not a TOML literal"),
+    (["interface.friction=0,8"], r"--set 'interface.friction=0,8': value '0,8' is not a TOML "
+                                 r"literal; allowed: e.g. 0.8 \(a decimal point, not a comma\)"),
     # [reservoir]
     (["reservoir.length=2e4"], r"reservoir.length = 20000.0: out of range, allowed \(0.0, 10000.0\]"),
     (["reservoir.model=acoustic", "reservoir.length=50"],
