@@ -1,7 +1,8 @@
 """The docs stay honest: every repository path they name exists, every relative link resolves,
 every section a link names (``[run.md](run.md) §4``) is a numbered heading of that page, every
-dotted module name (``ngs_driver.apps.dam.run``) is in the tree, and no page carries the history
-that belongs in CHANGELOG.md.
+dotted module name (``ngs_driver.apps.dam.run``) is in the tree, every ``--flag`` given to a
+verification script is defined by it, and no page carries the history that belongs in
+CHANGELOG.md.
 
 Reads README.md and docs/*.md (no imports of the project, no subprocess: well under a second).
 A *path* is a token of a code span (`...`) or of a fenced code block that
@@ -181,6 +182,32 @@ def test_dotted_names_resolve(page):
     assert not bad, f"{page.name} names modules or objects that do not exist: {bad}"
 
 
+SCRIPT_CALL = re.compile(r"python (?:verification/(\w+)\.py|-m verification\.(\w+))"
+                         r"((?:\s+\[?--[a-z][\w-]*\]?(?:\s+(?!--)[^\s`\[\]]+)?)*)")
+
+
+def _unknown_flags(text):
+    """(script, flag) pairs of ``python verification/x.py --flag`` where the script's source does
+    not define the flag (read as text: its argparse strings)."""
+    bad = []
+    for a, b, flags in SCRIPT_CALL.findall(text):
+        script = ROOT / "verification" / f"{a or b}.py"
+        if not script.is_file():
+            continue                              # test_named_paths_exist reports it
+        src = script.read_text(encoding="utf-8")
+        for flag in re.findall(r"--[a-z][\w-]*", flags):
+            if f'"{flag}"' not in src and f"'{flag}'" not in src:
+                bad.append((script.name, flag))
+    return bad
+
+
+@pytest.mark.parametrize("page", PAGES, ids=lambda p: p.relative_to(ROOT).as_posix())
+def test_script_flags_exist(page):
+    """Every ``--flag`` a page passes to a verification script is one that script defines."""
+    bad = _unknown_flags(page.read_text(encoding="utf-8"))
+    assert not bad, f"{page.name} passes flags the scripts do not define: {bad}"
+
+
 def test_the_checker_catches_what_it_should():
     """The checker itself: a wrong path, a partial path, a bad link are found; outputs and
     placeholders are not paths."""
@@ -203,6 +230,10 @@ def test_the_checker_catches_what_it_should():
     assert not _dotted_exists("ngs_driver.post.RunOutputs")       # not re-exported by post/
     assert not _dotted_exists("ngs_driver.ground_motion")         # it is setup/ground_motion.py
     assert not _dotted_exists("ngs_driver.setup.ground_motion.no_such_function")
+    assert _unknown_flags("`python verification/step_cost.py --floor --repeat 2`") == []
+    assert _unknown_flags("python verification/koyna_studies.py [--fast] [--jobs 2]") == []
+    assert _unknown_flags("`python verification/step_cost.py --flor`") == [("step_cost.py",
+                                                                            "--flor")]
 
 
 def test_architecture_table_names_files_of_their_stage():
