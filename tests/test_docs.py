@@ -208,6 +208,17 @@ def test_script_flags_exist(page):
     assert not bad, f"{page.name} passes flags the scripts do not define: {bad}"
 
 
+def test_readme_lists_the_shipped_scenes():
+    """README's "Shipped scenes:" paragraph names every scene file of ngs_driver/scenes/ and
+    nothing else (a scene added, renamed or removed shows here)."""
+    text = (ROOT / "README.md").read_text(encoding="utf-8")
+    para = text[text.index("Shipped scenes:"):].split("\n\n", 1)[0]
+    named = set(re.findall(r"`([A-Za-z0-9_]+)`", para))
+    shipped = {p.stem for p in (ROOT / "ngs_driver" / "scenes").glob("*.toml")}
+    assert len(shipped) >= 10, shipped
+    assert named == shipped, (sorted(shipped - named), sorted(named - shipped))
+
+
 def test_the_checker_catches_what_it_should():
     """The checker itself: a wrong path, a partial path, a bad link are found; outputs and
     placeholders are not paths."""
