@@ -9,6 +9,10 @@ formulas of docs/law.md §2 and §6:
 * unloading to g_N/2: the secant to the origin, so the traction halves exactly, and neither the
   history kappa nor the damage change (closing does not damage).
 
+Asserts: the loading traction equals the hand formula and the unloaded one half of it, both to
+1e-12 relative; no tangential traction; kappa and D unchanged by the unloading. Prints F_N
+(2.610249e+06 Pa).
+
 Run: python examples/ex01_readme_snippet.py
 """
 # ---- the README snippet, verbatim (tests/test_examples.py checks that it stays so) ----

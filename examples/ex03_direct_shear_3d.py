@@ -12,6 +12,10 @@ Expected: the shear force first rises to the cohesive peak tau_max l_Nc/l_Tc tim
 |F_T| = f p A in whatever direction it is pushed (+x, -x, +y, -y, diagonal); the dissipated
 energy never decreases.
 
+Asserts: the mean shear peak in (0.95, 1] of tau_max l_Nc/l_Tc (prints 0.9709); the dissipated
+energy non-decreasing and above the joint's mode-II fracture energy; at the end of each of the
+5 legs |F_T| = f p A and F_T along the leg, both to 1e-7.
+
 Run: python examples/ex03_direct_shear_3d.py       (a few seconds)
 """
 import numpy as np

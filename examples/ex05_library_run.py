@@ -9,6 +9,9 @@ Koyna upstream face is vertical, so the water pushes horizontally only) as its s
 the scene has no uplift. During the record the forces change by the inertia of the dam and the
 water, and the recorded rows are one per step.
 
+Asserts: verdict no_collapse with one recorded row per step (50), and the static normal and
+shear forces of the base equal W and P to 1e-6 relative (prints N_static_over_W).
+
 Run: python examples/ex05_library_run.py
 """
 import tempfile

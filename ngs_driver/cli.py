@@ -1,7 +1,7 @@
 """Command line: ``dam-seismic`` / ``python -m ngs_driver``.
 
     run SCENE [--set key=value ...] [--resume | --overwrite] [--dry-run] [--out DIR] [--quiet]
-    run-paper [SCENE] [--set ...] [--out DIR] [--resume | --overwrite] [--quiet]
+    run-paper [SCENE] [--set ...] [--out DIR] [--resume | --overwrite] [--dry-run] [--quiet]
                                                            alpha = 2 and alpha = 1 + comparison
     compare DIR_A DIR_B [--out DIR]                        comparison of two finished runs
     modal SCENE [--set ...] [--out DIR] [-n N]             natural frequencies -> modal.json
@@ -256,6 +256,10 @@ def paper_dirs(base: pathlib.Path) -> dict:
 def cmd_run_paper(a) -> int:
     if a.resume and a.overwrite:
         return _err("--resume and --overwrite: allowed: one of them")
+    for item in a.overrides:        # the user's alpha would be replaced without a word
+        if item.split("=", 1)[0].strip() == "interface.alpha":
+            return _err(f"--set {item!r}: run-paper sets interface.alpha itself (2.0, then "
+                        "1.0); allowed: any other key (one alpha: dam-seismic run)")
     scenes = {}
     try:
         base = _outdir(a.out or "results")

@@ -33,6 +33,11 @@ KOYNA_PROFILE = ((0.0, 0.0), (70.0, 0.0), (19.25, 66.5), (14.8, 103.0), (0.0, 10
 MAX_ROTATION_SUPPORTED = 0.1
 MAX_ROTATION_FINITE = 1.0
 JOINT_NAME_CHARS = set("abcdefghijklmnopqrstuvwxyz0123456789_")
+# the most steps a run may take (duration / dt): time.duration's upper bound 1e4 s at 1 ms. The
+# record is resampled to dt when the scene is validated (--dry-run): 1e7 steps took 0.6 GB and
+# 2 s there, 1e8 steps 4.8 GB and 14 s, and 1e10 (dt = 1e-9 s over 10 s) failed allocating 75 GB
+# (2026-11-27); at about 1 ms a step, 1e7 steps are hours of run already
+MAX_STEPS = 10 ** 7
 
 
 def _f(default, lo=None, hi=None, lo_open=False, hi_open=False, choices=None, doc="",
@@ -631,14 +636,18 @@ def _cross_checks(obj, path):
 
 
 def _whole_steps(t, path):
-    """A run takes duration / dt steps: at least one, and a whole number of them (a rounded
-    number would end the run elsewhere than the scene says; relative tolerance 1e-9 for the
-    decimal fractions of dt)."""
+    """A run takes duration / dt steps: at least one, at most MAX_STEPS, and a whole number of
+    them (a rounded number would end the run elsewhere than the scene says; relative tolerance
+    1e-9 for the decimal fractions of dt)."""
     n = t.duration / t.dt
     k = round(n)
     if k < 1:
         raise ValueError(f"{path}.dt = {t.dt!r} with {path}.duration = {t.duration!r}: no time "
                          f"step fits in the duration; allowed: {path}.dt <= {path}.duration")
+    if k > MAX_STEPS:
+        raise ValueError(f"{path}.dt = {t.dt!r} with {path}.duration = {t.duration!r}: {n:.3g} "
+                         f"time steps; allowed: at most {MAX_STEPS:.0e} steps, i.e. {path}.dt >= "
+                         f"{t.duration / MAX_STEPS:.3g} for this duration")
     if abs(n - k) > 1e-9 * n:
         lo, hi = math.floor(n) * t.dt, math.ceil(n) * t.dt
         raise ValueError(f"{path}.duration = {t.duration!r} with {path}.dt = {t.dt!r}: "
@@ -650,19 +659,23 @@ def parse_override(item: str) -> tuple[list[str], Any]:
     """'a.b.c=value' -> (['a','b','c'], value).  value is a TOML literal (1e9, true,
     "rigid", [1, 3]); a bare word that is not valid TOML is taken as a string."""
     if "=" not in item:
-        raise ValueError(f"--set {item!r}: expected KEY.PATH=VALUE")
+        raise ValueError(f"--set {item!r}: expected KEY.PATH=VALUE, e.g. "
+                         "interface.friction=0.8")
     key, _, sval = item.partition("=")
     key, sval = key.strip(), sval.strip()
     parts = key.split(".")
     if not key or any(not p for p in parts):
-        raise ValueError(f"--set {item!r}: bad key path {key!r}")
+        raise ValueError(f"--set {item!r}: bad key path {key!r}; allowed: section.key, "
+                         "e.g. interface.friction")
     try:
         val = tomllib.loads(f"v = {sval}")["v"]
     except tomllib.TOMLDecodeError:
         if sval and all(c.isalnum() or c in "_-./" for c in sval):
             val = sval
         else:
-            raise ValueError(f"--set {item!r}: value {sval!r} is not a TOML literal") from None
+            raise ValueError(f"--set {item!r}: value {sval!r} is not a TOML literal; allowed: "
+                             "e.g. 0.8 (a decimal point, not a comma), true, '\"rigid\"', "
+                             "[1, 3]") from None
     return parts, val
 
 

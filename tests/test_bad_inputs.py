@@ -122,6 +122,8 @@ SCENES = [
     (["materials.plane=1"], r"materials.plane = 1: wrong type"),
     (["mesh.h_heel"], r"expected KEY.PATH=VALUE"),
     (["mesh.h_heel=[1,"], r"is not a TOML literal"),
+    (["interface.friction=0,8"], r"--set 'interface.friction=0,8': value '0,8' is not a TOML "
+                                 r"literal; allowed: e.g. 0.8 \(a decimal point, not a comma\)"),
     # [reservoir]
     (["reservoir.length=2e4"], r"reservoir.length = 20000.0: out of range, allowed \(0.0, 10000.0\]"),
     (["reservoir.model=acoustic", "reservoir.length=50"],
@@ -156,6 +158,9 @@ SCENES = [
     (["time.dt=0.5", "time.duration=0.1"],
      r"time.dt = 0.5 with time.duration = 0.1: no time step fits in the duration; allowed: "
      r"time.dt <= time.duration"),
+    (["time.dt=1e-9"],                     # 1e10 steps: the resampled record would take 75 GB
+     r"time.dt = 1e-09 with time.duration = 10.0: 1e\+10 time steps; allowed: at most 1e\+07 "
+     r"steps, i.e. time.dt >= 1e-06 for this duration"),
     (["time.dt=0.004", "time.duration=0.01"],
      r"time.duration = 0.01 with time.dt = 0.004: 2.5 steps, not a whole number; allowed: a "
      r"whole number of steps, e.g. time.duration = 0.008 or 0.012"),
@@ -326,6 +331,37 @@ def test_ida_out_that_is_a_file(tmp_path):
                                               r"folder"):
         run_ida("koyna_smoke", suite="fema-p695-farfield", im="pga", levels=[0.1], out=f,
                 workers=1)
+
+
+def test_ida_lists_name_what_is_allowed(tmp_path, capsys):
+    """A mistyped --levels or --records: exit 2, the option, the value and what is allowed, and
+    the study folder not created."""
+    out = tmp_path / "study"
+    base = ["ida", "koyna_smoke", "--suite", "fema-p695-farfield", "--components", "a",
+            "--im", "pga", "--out", str(out)]
+    cases = [(["--records", "1", "--levels", "0.1,abc"],
+              "--levels '0.1,abc': 'abc' is not a valid value; allowed: comma-separated "
+              "numbers, e.g. 0.05,0.1,0.2"),
+             (["--records", "1,x", "--levels", "0.1"],
+              "--records '1,x': 'x' is not a valid value; allowed: comma-separated integers"),
+             (["--records", "1", "--levels", ","],
+              "--levels ',': empty list; allowed: comma-separated numbers")]
+    for extra, msg in cases:
+        rc, _, err = _dry(base + extra, capsys)
+        assert rc == 2 and msg in err, (extra, err)
+    assert not out.exists()
+
+
+def test_run_paper_refuses_an_alpha_of_its_own(tmp_path, capsys):
+    """run-paper sets interface.alpha to 2 and 1: a --set of it (even a bad value) would be
+    replaced without a word; exit 2 naming the key, nothing created."""
+    out = tmp_path / "paper"
+    for value in ("1.5", "abc"):
+        rc, _, err = _dry(["run-paper", "koyna_smoke", "--dry-run", "--set",
+                           f"interface.alpha={value}", "--out", str(out)], capsys)
+        assert rc == 2 and (f"--set 'interface.alpha={value}': run-paper sets interface.alpha "
+                            "itself (2.0, then 1.0); allowed: any other key") in err, err
+    assert not out.exists()
 
 
 def test_resume_with_another_scene_names_the_key(tmp_path, capsys):

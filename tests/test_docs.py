@@ -1,5 +1,8 @@
 """The docs stay honest: every repository path they name exists, every relative link resolves,
-and no page carries the history that belongs in CHANGELOG.md.
+every section a link names (``[run.md](run.md) §4``) is a numbered heading of that page, every
+dotted module name (``ngs_driver.apps.dam.run``) is in the tree, every ``--flag`` given to a
+verification script is defined by it, and no page carries the history that belongs in
+CHANGELOG.md.
 
 Reads README.md and docs/*.md (no imports of the project, no subprocess: well under a second).
 A *path* is a token of a code span (`...`) or of a fenced code block that
@@ -119,6 +122,118 @@ def test_no_history_markers(page):
     assert not found, f"{page.name} contains {found}"
 
 
+SECTION_REF = re.compile(r"\[[^\]]*\]\(([^)\s#]+\.md)\)\s*§\s*(\d+(?:\.\d+)*)")
+HEADING_NUMBER = re.compile(r"^#+\s+(\d+(?:\.\d+)*)[.\s]", re.M)
+
+
+def _section_numbers(path):
+    """The numbers of a page's numbered headings ("## 4. The collapse rule" -> "4")."""
+    return set(HEADING_NUMBER.findall(path.read_text(encoding="utf-8")))
+
+
+def _bad_section_refs(page, text):
+    bad = []
+    for target, number in SECTION_REF.findall(FENCE.sub("", text)):
+        path = page.parent / target
+        if path.exists() and number not in _section_numbers(path):
+            bad.append(f"{target} §{number}")
+    return bad
+
+
+@pytest.mark.parametrize("page", PAGES, ids=lambda p: p.relative_to(ROOT).as_posix())
+def test_section_references_resolve(page):
+    """``[run.md](run.md) §4``: the linked page has a heading numbered 4 (a renumbered page
+    shows here)."""
+    bad = _bad_section_refs(page, page.read_text(encoding="utf-8"))
+    assert not bad, f"{page.name} refers to sections that do not exist: {bad}"
+
+
+DOTTED = re.compile(r"\b((?:ngs_driver|interfacelaw)(?:\.[A-Za-z_]\w*)+)")
+
+
+def _dotted_exists(name):
+    """``ngs_driver.post.outputs.RunOutputs``: the longest prefix that is a folder or a module
+    of the tree, then the next name defined (or re-exported) in that module or in the package's
+    __init__.py (a word match: read as text, nothing imported)."""
+    parts, path = name.split("."), ROOT
+    for i, part in enumerate(parts):
+        if (path / part).is_dir():
+            path = path / part
+            continue
+        if (path / f"{part}.py").is_file():
+            path, rest = path / f"{part}.py", parts[i + 1:]
+        else:
+            path, rest = path / "__init__.py", parts[i:]
+        break
+    else:
+        return True
+    if not rest:
+        return True
+    src = path.read_text(encoding="utf-8") if path.is_file() else ""
+    return re.search(rf"(^|\W){re.escape(rest[0])}\b", src) is not None
+
+
+# a stage-relative name in a code span (`fe.coupling.build_joint_operator`): checked when its
+# first two parts are a module of ngs_driver (`run.u_static`, a checkpoint key, is not one)
+STAGE_DOTTED = re.compile(r"`((?:setup|fe|solve|run|post|apps|studies)\.\w+\.[A-Za-z_]\w*)")
+
+
+def _dotted_names(text):
+    names = set(DOTTED.findall(text))
+    for name in STAGE_DOTTED.findall(text):
+        stage, module = name.split(".")[:2]
+        if (ROOT / "ngs_driver" / stage / f"{module}.py").is_file():
+            names.add("ngs_driver." + name)
+    return names
+
+
+@pytest.mark.parametrize("page", PAGES, ids=lambda p: p.relative_to(ROOT).as_posix())
+def test_dotted_names_resolve(page):
+    """A module or object a page names by its dotted path (``ngs_driver.apps.dam.run``, or
+    stage-relative ``fe.coupling.build_joint_operator``) is in the tree: a module moved or a
+    function renamed by a refactor shows here."""
+    names = _dotted_names(page.read_text(encoding="utf-8"))
+    bad = sorted(n for n in names if not _dotted_exists(n))
+    assert not bad, f"{page.name} names modules or objects that do not exist: {bad}"
+
+
+SCRIPT_CALL = re.compile(r"python (?:verification/(\w+)\.py|-m verification\.(\w+))"
+                         r"((?:\s+\[?--[a-z][\w-]*\]?(?:\s+(?!--)[^\s`\[\]]+)?)*)")
+
+
+def _unknown_flags(text):
+    """(script, flag) pairs of ``python verification/x.py --flag`` where the script's source does
+    not define the flag (read as text: its argparse strings)."""
+    bad = []
+    for a, b, flags in SCRIPT_CALL.findall(text):
+        script = ROOT / "verification" / f"{a or b}.py"
+        if not script.is_file():
+            continue                              # test_named_paths_exist reports it
+        src = script.read_text(encoding="utf-8")
+        for flag in re.findall(r"--[a-z][\w-]*", flags):
+            if f'"{flag}"' not in src and f"'{flag}'" not in src:
+                bad.append((script.name, flag))
+    return bad
+
+
+@pytest.mark.parametrize("page", PAGES, ids=lambda p: p.relative_to(ROOT).as_posix())
+def test_script_flags_exist(page):
+    """Every ``--flag`` a page passes to a verification script is one that script defines."""
+    bad = _unknown_flags(page.read_text(encoding="utf-8"))
+    assert not bad, f"{page.name} passes flags the scripts do not define: {bad}"
+
+
+def test_readme_lists_the_shipped_scenes():
+    """README's "Shipped scenes:" paragraph names every scene file of ngs_driver/scenes/ and
+    nothing else (a scene added, renamed or removed shows here)."""
+    text = (ROOT / "README.md").read_text(encoding="utf-8")
+    para = text[text.index("Shipped scenes:"):].split("\n\n", 1)[0]
+    named = set(re.findall(r"`([A-Za-z0-9_]+)`", para))
+    shipped = {p.stem for p in (ROOT / "ngs_driver" / "scenes").glob("*.toml")}
+    assert len(shipped) >= 10, shipped
+    assert named == shipped, (sorted(shipped - named), sorted(named - shipped))
+
+
 def test_the_checker_catches_what_it_should():
     """The checker itself: a wrong path, a partial path, a bad link are found; outputs and
     placeholders are not paths."""
@@ -132,6 +247,22 @@ def test_the_checker_catches_what_it_should():
     for tok in ("m/s2", "2/3-same", "tcp://HOST:8786", "/tmp/x.py", "--out", "g_T/|g_T|"):
         assert not _is_path(tok), tok
     assert _exists("results/koyna_alpha2/") and _exists("verification/out/REPORT.md")
+    page = ROOT / "docs" / "any.md"                   # a page in docs/: its links are relative
+    assert _bad_section_refs(page, "[run.md](run.md) §4 and [law.md](law.md) §6.5") == []
+    assert _bad_section_refs(page, "[run.md](run.md) §42") == ["run.md §42"]
+    assert _dotted_exists("ngs_driver.post.outputs.RunOutputs")
+    assert _dotted_exists("ngs_driver.setup.ground_motion.generate_koyna_like")
+    assert _dotted_exists("interfacelaw.cabi") and _dotted_exists("ngs_driver.apps")
+    assert not _dotted_exists("ngs_driver.post.RunOutputs")       # not re-exported by post/
+    assert not _dotted_exists("ngs_driver.ground_motion")         # it is setup/ground_motion.py
+    assert not _dotted_exists("ngs_driver.setup.ground_motion.no_such_function")
+    assert _dotted_names("`fe.coupling.build_interface` and `run.u_static`") == {
+        "ngs_driver.fe.coupling.build_interface"}                  # a checkpoint key is skipped
+    assert not _dotted_exists("ngs_driver.fe.coupling.build_interface")
+    assert _unknown_flags("`python verification/step_cost.py --floor --repeat 2`") == []
+    assert _unknown_flags("python verification/koyna_studies.py [--fast] [--jobs 2]") == []
+    assert _unknown_flags("`python verification/step_cost.py --flor`") == [("step_cost.py",
+                                                                            "--flor")]
 
 
 def test_architecture_table_names_files_of_their_stage():

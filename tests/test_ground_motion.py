@@ -176,6 +176,22 @@ def test_shipped_file_equals_generator():
         assert np.max(np.abs(a - b)) <= 1e-12 * np.max(np.abs(a))
 
 
+def test_shipped_file_header_names_modules_that_exist():
+    """The shipped record's header tells a reader how it was made and how to regenerate it:
+    the modules it names exist (they named ngs_driver.ground_motion after the module moved to
+    ngs_driver/setup/)."""
+    import importlib
+    import importlib.util
+    head = [ln[2:] for ln in gmm.DEFAULT_FILE.read_text().splitlines() if ln.startswith("# ")]
+    gen = next(ln for ln in head if ln.startswith("generator: "))
+    regen = next(ln for ln in head if ln.startswith("regenerate: "))
+    func = gen.split(": ", 1)[1].split("(", 1)[0]            # module.function
+    module, name = func.rsplit(".", 1)
+    assert importlib.util.find_spec(module) is not None, gen
+    assert hasattr(importlib.import_module(module), name), gen
+    assert regen == f"regenerate: python -m {module} --write-default", regen
+
+
 def test_default_record_residual_velocity_displacement():
     gm = load_default()
     v, d = gm.integrate()

@@ -228,6 +228,23 @@ def test_resume_with_crack_dependent_uplift_and_screening(tmp_path):
     assert sb["post_earthquake"]["joints"] == sa["post_earthquake"]["joints"]
 
 
+def test_safety_table_without_a_post_earthquake_fs():
+    """A run that collapsed has no post-earthquake solve (summary.json: skipped, sliding_fs
+    null): its cell says so; a solve that found no FS says none. Neither reads "never" (the
+    word of the time columns), as make run's results.md did for the paper scene."""
+    from ngs_driver.post.report import safety_table
+
+    def summary(skipped):
+        return {"static": {"joints": {"base": {"sliding_fs": 5.69}}},
+                "safety": {"joints": {"base": {"min_sliding_fs": 1.0, "time_fs_below_1": 0.0,
+                                               "residual_slip": 0.002}}},
+                "post_earthquake": {"skipped": skipped, "joints": {
+                    "base": {"sliding_fs": None, "meets_criterion": False}}}}
+    txt = safety_table({"a": (summary(True), None, None), "b": (summary(False), None, None)})
+    assert "| a | 5.69 | 1 | 0.000 s | 0.002 m | not computed (run stopped) | NO |" in txt, txt
+    assert "| b | 5.69 | 1 | 0.000 s | 0.002 m | none | NO |" in txt, txt
+
+
 def test_compare_results_md_carries_the_safety_table(elastic_run, tmp_path):
     """`compare` (make run's results.md) lists each run's base FS: static, minimum, post-
     earthquake and the 1.3 check, formatted from summary.json."""

@@ -8,7 +8,7 @@ convergence study of "crack length at the end" is meaningless there (70 m for ev
 The sweep (ground_motion.scale) gives this model's fragility-like curve under this record, and the
 studies are run at the largest scale whose crack stays partial (not the whole base, no sliding).
 
-Quantities per run (from ``summary.json`` / ``timeseries.csv`` of ``ngs_driver.run.run``):
+Quantities per run (from ``summary.json`` / ``timeseries.csv`` of ``ngs_driver.apps.dam.run``):
   wall         timings.dynamic [s] (the time-stepping loop only; build/modal/static excluded)
   L_end        crack length at the end, contiguous debonded length from the heel [m]
   L_max        its maximum over the window; L_tot: total debonded length at the end

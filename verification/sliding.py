@@ -17,7 +17,7 @@
   contact's release events (the block rattles on its contact springs), HHT and generalized
   alpha do not.
 
-Every run goes through ``ngs_driver.run.run`` (the ``run`` command) on the shipped
+Every run goes through ``ngs_driver.apps.dam.run`` (the ``run`` command) on the shipped
 ``sliding_block`` scene with ``--set`` overrides.
 """
 from __future__ import annotations

@@ -116,7 +116,8 @@ def koyna_section(k: dict, rows: dict | None = None) -> list[str]:
     p1 = k.get("part1")
     if p1:
         out += ["### Time per step against DOFs and interface points", "",
-                f"Short runs of `python -m ngs_driver run koyna` (ngs_driver.run.run on a prebuilt model; "
+                f"Short runs of `python -m ngs_driver run koyna` (ngs_driver.apps.dam.run on a "
+                f"prebuilt model; "
                 f"{p1['duration']} s = {round(p1['duration'] / 2e-3)} steps of dt = 2 ms) from "
                 f"`ground_motion.start = {p1['start']}` s: {p1['record']} — its strongest "
                 f"second. Per-step wall = median over the steps of a run (the first step, which "

@@ -233,10 +233,16 @@ def safety_table(data) -> str:
             continue
         d = ((s.get("safety") or {}).get("joints") or {}).get("base", {})
         pe = ((s.get("post_earthquake") or {}).get("joints") or {}).get("base", {})
+        # no post-earthquake FS: the run stopped (collapse or undetermined: no solve) or friction
+        # cannot hold the final state -- not "never", which the time columns use
+        fs_pe = pe.get("sliding_fs")
+        fs_pe = _fmt(fs_pe) if fs_pe is not None else (
+            "not computed (run stopped)" if (s.get("post_earthquake") or {}).get("skipped")
+            else "none")
         rows.append(f"| {k} | {st['sliding_fs']:.3g} | {_fmt(d.get('min_sliding_fs'))} | "
                     f"{_fmt(d.get('time_fs_below_1'), '{:.3f} s')} | "
                     f"{_fmt(d.get('residual_slip'), '{:.3g} m')} | "
-                    f"{_fmt(pe.get('sliding_fs'))} | "
+                    f"{fs_pe} | "
                     f"{'yes' if pe.get('meets_criterion') else 'NO'} |")
     if not rows:
         return ""

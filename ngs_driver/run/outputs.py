@@ -1,7 +1,7 @@
 """What a run hands to the output stage, and when. ``prepare(..., outputs=...)`` takes an object
 with these five methods; this base class writes nothing (the run's own files -- checkpoints,
 ``final_state.npz``, ``summary.json`` -- are written by the run either way).
-``ngs_driver.post.RunOutputs`` writes the standard results: the CSV files, the figures and the
+``ngs_driver.post.outputs.RunOutputs`` writes the standard results: the CSV files, the figures and the
 VTK files. The run stage never imports the output stage: the arrow goes one way."""
 from __future__ import annotations
 

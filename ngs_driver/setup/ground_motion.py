@@ -713,12 +713,12 @@ def _default_header(gm: GroundMotion) -> list[str]:
     px, py = gm.peak_g()
     return [
         "SYNTHETIC ground motion -- NOT the recorded 1967 Koyna accelerogram (none is in public sources).",
-        f"generator: ngs_driver.ground_motion.generate_koyna_like(seed={DEFAULT_SEED}, dt={DEFAULT_DT}, "
+        f"generator: ngs_driver.setup.ground_motion.generate_koyna_like(seed={DEFAULT_SEED}, dt={DEFAULT_DT}, "
         f"duration={DEFAULT_DURATION})",
         f"seed: {DEFAULT_SEED}",
         f"peaks: |ax|max = {px:.12g} g (horizontal), |ay|max = {py:.12g} g (vertical); g = {G} m/s2",
         f"procedure: {gm.source}",
-        "regenerate: python -m ngs_driver.ground_motion --write-default",
+        "regenerate: python -m ngs_driver.setup.ground_motion --write-default",
         "units: m/s2",
     ]
 

@@ -96,6 +96,8 @@ def run_id(rset: str, n: int, comp: str, im: str, level: float, h: str) -> str:
 def parse_list(text, what: str, conv):
     if text is None:
         return None
+    allowed = {int: "integers, e.g. 1,2,7", float: "numbers, e.g. 0.05,0.1,0.2"}.get(
+        conv, "values, e.g. a,b")
     out = []
     for tok in str(text).split(","):
         tok = tok.strip()
@@ -104,9 +106,11 @@ def parse_list(text, what: str, conv):
         try:
             out.append(conv(tok))
         except ValueError:
-            raise StudyInputError(f"{what} {text!r}: {tok!r} is not a valid value") from None
+            raise StudyInputError(f"{what} {text!r}: {tok!r} is not a valid value; allowed: "
+                                  f"comma-separated {allowed}") from None
     if not out:
-        raise StudyInputError(f"{what} {text!r}: empty list")
+        raise StudyInputError(f"{what} {text!r}: empty list; allowed: comma-separated "
+                              f"{allowed}")
     return out
 
 
