@@ -42,6 +42,18 @@ CHUNK = 4096
 _NO_SPEC = (1.0, 0.0, 1.0)
 
 
+@njit(cache=True)
+def sum_squares(x):
+    """sum x_i^2 of a 1-D float64 array, in index order: the law's quick bound on every |x_i|
+    (``law._QUICK_SQ``). A gap of ~1e155 m or more overflows it to inf and is refused by the
+    full check; numpy's ``x.dot(x)`` printed a RuntimeWarning ("overflow encountered in dot")
+    before that error, numba's loop raises none. ~0.4 us for the 666 values of Koyna's gap."""
+    s = 0.0
+    for i in range(x.size):
+        s += x[i] * x[i]
+    return s
+
+
 @njit(cache=True, inline="always", error_model="numpy")
 def secant(k, lm, ilm, ilm1):
     """Secant factor s(κ) of Eqs. 2–3 and ds/dκ (ilm = 1/λ_max, ilm1 = 1/(1-λ_max))."""

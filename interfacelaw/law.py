@@ -166,7 +166,7 @@ class InterfaceLaw:
                              f"gap of shape {gap.shape}; allowed: the same n and dim")
         if n and gap.flags.c_contiguous:
             flat = gap.reshape(-1)
-            if flat.dot(flat) <= _QUICK_SQ:           # every |g| < GAP_LIMIT (``_QUICK_SQ``)
+            if _kernels.sum_squares(flat) <= _QUICK_SQ:   # every |g| < GAP_LIMIT (_QUICK_SQ)
                 return
         self.check_gap(gap)
 
@@ -307,7 +307,7 @@ class BoundLaw:
             self.refuse(gap)
         g = gap if gap.flags.c_contiguous else np.ascontiguousarray(gap)
         g = g.reshape(-1)
-        if not (n == 0 or g.dot(g) <= _QUICK_SQ):
+        if not (n == 0 or _kernels.sum_squares(g) <= _QUICK_SQ):
             self.law.check_gap(g.reshape(n, dim))   # raises, or a large finite gap passes
         F = np.empty((n, dim))
         T = np.empty((n, dim, dim))
