@@ -256,3 +256,20 @@ def test_compare_results_md_carries_the_safety_table(elastic_run, tmp_path):
     fs = s["static"]["joints"]["base"]["sliding_fs"]
     assert "Sliding safety of the base" in txt
     assert f"| alpha2 | {fs:.3g} |" in txt and "| yes |" in txt
+
+
+def test_damage_ordering_tells_saturated_runs_apart_by_the_heel():
+    """make run's results.md said "alpha = 2 gives less damage" when both runs reached max D = 1
+    (the paper scene: the base debonds in both). Equal maxima now say so and compare the
+    heel's (0.00564 against 0.2847 there); unequal maxima keep their sentence."""
+    from ngs_driver.post.report import damage_ordering
+
+    txt = damage_ordering({"max_D": 1.0, "max_D_heel": 0.00564},
+                          {"max_D": 1.0, "max_D_heel": 0.2847})
+    assert "gives less damage" not in txt
+    assert "The same largest damage in both runs" in txt
+    assert "at the heel max D = 0.00564 (alpha = 2) vs 0.2847 (alpha = 1): alpha = 2 less" in txt
+    assert "gives less damage" in damage_ordering({"max_D": 0.3}, {"max_D": 0.5})
+    assert "gives more damage" in damage_ordering({"max_D": 0.5}, {"max_D": 0.3})
+    assert "heel max D = 0.5 (alpha = 2) vs 0.2 (alpha = 1): alpha = 2 more" in damage_ordering(
+        {"max_D": 1.0, "max_D_heel": 0.5}, {"max_D": 1.0, "max_D_heel": 0.2})
