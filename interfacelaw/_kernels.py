@@ -25,6 +25,7 @@ law with those values as constants (:func:`code`, ``numba.literally``), which le
 import contextlib
 import math
 import os
+import sys
 import tempfile
 
 import numpy as np
@@ -562,6 +563,43 @@ def cache_lock():
         os.close(fd)                     # closing releases the lock
 
 
+# what LLVM prints to the process's C stderr while a loop compiles with the forced vector width
+# and that is not passed on: its analysis remarks on the loops it cannot vectorise (a call
+# inside, a reduction), 9 lines on a first call with a cold cache (examples/ex01) -- noise for
+# a user, not an error; the loops that matter are the points' loops, which it vectorises
+_LLVM_REMARK = ("remark: ", "loop not vectorized")
+
+
+@contextlib.contextmanager
+def llvm_remarks_dropped():
+    """Within: whatever is written to file descriptor 2 (the C stderr, where LLVM writes) is
+    held and written there afterwards, but for LLVM's "loop not vectorized" remarks
+    (``_LLVM_REMARK``). Nothing is filtered when stderr has no file descriptor."""
+    try:
+        fd = sys.__stderr__.fileno()
+    except (AttributeError, ValueError, OSError):
+        yield
+        return
+    sys.stderr.flush()
+    saved = os.dup(fd)
+    with tempfile.TemporaryFile() as held:
+        os.dup2(held.fileno(), fd)
+        try:
+            yield
+        finally:
+            try:
+                sys.stderr.flush()
+            finally:
+                os.dup2(saved, fd)
+                os.close(saved)
+            held.seek(0)
+            kept = [line for line in held.read().splitlines(keepends=True)
+                    if not (line.startswith(_LLVM_REMARK[0].encode())
+                            and _LLVM_REMARK[1].encode() in line)]
+            if kept:
+                os.write(fd, b"".join(kept))
+
+
 def compiled(kern, key) -> bool:
     """True when ``call`` has compiled ``kern`` for ``key`` (later calls may call it directly)."""
     return (kern, key) in _compiled
@@ -573,7 +611,7 @@ def call(kern, key, *args):
     if (kern, key) in _compiled:
         return kern(*args)
     import llvmlite.binding as llvm
-    with cache_lock():
+    with cache_lock(), llvm_remarks_dropped():
         for opt, on, _ in _LLVM_OPTIONS:
             llvm.set_option("", f"-{opt}={on}")
         try:

@@ -40,3 +40,24 @@ def test_a_first_call_waits_for_the_cache_lock():
     with _kernels.cache_lock():
         assert _kernels.call(loop, ("test", 1), 8) == 8
     assert len(calls) == 2
+
+
+def test_a_first_call_drops_llvm_remarks_and_keeps_the_rest(capfd):
+    """LLVM writes "remark: ... loop not vectorized: ..." to the C stderr (file descriptor 2)
+    while a loop compiles with the forced vector width: 9 lines on examples/ex01's first call
+    with a cold cache. A first call drops those lines and passes on everything else written
+    there, in order (a stand-in loop writes both kinds with os.write, as LLVM does)."""
+    import os
+
+    def loop(x):
+        os.write(2, b"remark: <unknown>:0:0: loop not vectorized: call instruction cannot "
+                    b"be vectorized\n")
+        os.write(2, b"an LLVM error line\n")
+        os.write(2, b"remark: <unknown>:0:0: loop not vectorized: value that could not be "
+                    b"identified as reduction is used outside the loop\n")
+        os.write(2, b"remark: something else\n")
+        return x
+
+    assert _kernels.call(loop, ("test", 2), 5) == 5
+    err = capfd.readouterr().err
+    assert err == "an LLVM error line\nremark: something else\n", err
