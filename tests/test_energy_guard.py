@@ -77,6 +77,9 @@ def test_guard_rejects_a_step_that_creates_energy_and_accepts_one_within_its_lim
     floor = GUARD_FLOOR * 1e6                      # 1000 J/m: the static scale's share
     # 4e3 J/m created in a step with 2e4 J/m of work: within 0.5 x 2e4 + 1e3, accepted
     ok, _ = g.check(row(res=-4e3, wext=1e4, wj=1e4), 0.002)
+    # pytest.approx's default (1e-6 relative) in this test: the jumps and limits are sums and
+    # differences of the rows' 1e4-sized terms, exact but for round-off (~1e-12 relative); a
+    # wrong term would be off by at least 1 J/m (1e-4 relative)
     assert ok and g.max_jump == pytest.approx(4e3)
     # the integrator 'dissipating' -2e4 J/m (energy created) with 1e4 J/m of work: cut
     ok, why = g.check(row(res=-4e3, alg=-2e4, wext=2e4, wj=1e4), 0.004)
