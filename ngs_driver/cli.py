@@ -191,7 +191,8 @@ def cmd_run(a) -> int:
                         "allowed: --resume with kind 'koyna'")
         return _run_other(sc, outdir, not a.quiet)
     try:                              # the folder's lock held from the checks to the end
-        return _run_one(sc, outdir, a.resume, not a.quiet, a.overwrite, _out_key(a.out))
+        return _run_one(sc, outdir, a.resume, not a.quiet, a.overwrite, _out_key(a.out),
+                        warm=(a.scene, a.overrides))
     finally:
         lock.release()
 
@@ -232,7 +233,21 @@ def _run_other(sc, outdir, progress) -> int:
     return 0
 
 
-def _run_one(sc, outdir, resume, progress, overwrite=False, out_key="--out") -> int:
+def _run_one(sc, outdir, resume, progress, overwrite=False, out_key="--out",
+             warm=None) -> int:
+    """One run of a koyna-kind scene. warm: (scene name or path, overrides) of ``sc``: its
+    interface-law loops are compiled in a child process while this one builds the model
+    (``apps.warm``: a cold numba cache's compile is not kept in the run's memory)."""
+    # deferred: a command imports only what it runs (fast --help; --dry-run without NGSolve)
+    from .apps import warm as warmup
+    child = warmup.start(*warm) if warm is not None else None
+    try:
+        return _run_dam(sc, outdir, resume, progress, overwrite, out_key)
+    finally:
+        warmup.finish(child)
+
+
+def _run_dam(sc, outdir, resume, progress, overwrite, out_key) -> int:
     # deferred: a command imports only what it runs (fast --help; --dry-run without NGSolve)
     from .apps.dam import run
     try:
@@ -264,14 +279,15 @@ def cmd_run_paper(a) -> int:
     try:
         base = _outdir(a.out or "results")
         for (lab, d), alpha in zip(paper_dirs(base).items(), (2.0, 1.0)):
-            scenes[lab] = (_load(a.scene, list(a.overrides) + [f"interface.alpha={alpha}"]), d)
+            sets = list(a.overrides) + [f"interface.alpha={alpha}"]
+            scenes[lab] = (_load(a.scene, sets), d, sets)
     except ValueError as e:
         return _err(str(e))
     kind = next(iter(scenes.values()))[0].kind
     if kind != "koyna":
         return _err(f"run-paper: scene {a.scene!r} is of kind {kind!r}; allowed: a koyna scene")
     try:
-        for lab, (sc, d) in scenes.items():
+        for lab, (sc, d, _) in scenes.items():
             resume = a.resume and (d / "checkpoint.json").exists() \
                 and not (d / "summary.json").exists()
             if not (a.resume and (d / "summary.json").exists()):
@@ -281,22 +297,22 @@ def cmd_run_paper(a) -> int:
     except ValueError as e:
         return _err(str(e))
     if a.dry_run:
-        for lab, (sc, d) in scenes.items():
+        for lab, (sc, d, _) in scenes.items():
             print(f"# {lab}")
             _dry_run(sc, d)
         print(f"# comparison -> {base / 'koyna_compare'}")
         return 0
-    for lab, (sc, d) in scenes.items():
+    for lab, (sc, d, sets) in scenes.items():
         resume = a.resume and (d / "checkpoint.json").exists() \
             and not (d / "summary.json").exists()
         if a.resume and (d / "summary.json").exists():
             print(f"{lab}: {d} is complete, not rerun")
             continue
-        rc = _run_one(sc, d, resume, not a.quiet, a.overwrite)
+        rc = _run_one(sc, d, resume, not a.quiet, a.overwrite, warm=(a.scene, sets))
         if rc:
             return rc
         gc.collect()        # the first run's model and factors are freed before the second
-    return _compare({lab: d for lab, (sc, d) in scenes.items()}, base / "koyna_compare")
+    return _compare({lab: d for lab, (sc, d, _) in scenes.items()}, base / "koyna_compare")
 
 
 def _compare(runs: dict, out) -> int:
