@@ -534,14 +534,13 @@ def main(fast: bool = False, md=None, repeats: int = 2, only=None) -> dict:
     only = set(only or (1, 2, 3, 4))
     dur = 0.05 if fast else None
     from verification.write_benchmarks import cpu_name
-    old = out / "bench_speed_targets.json"
-    if not old.exists():                          # the name an earlier version wrote
-        old = out / "bench_speed2.json"
+    new = out / "bench_speed_targets.json"        # written here (the section names it)
+    old = new if new.exists() else out / "bench_speed2.json"   # the name an earlier version wrote
     r = json.loads(old.read_text()) if old.exists() and only != {1, 2, 3, 4} else {}
     r.update({"machine": f"{cpu_name()}, {os.cpu_count()} cores, Python {sys.version.split()[0]}",
               "date": time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime())})
     def save():                       # after each target: a later failure loses nothing
-        atomic_write_text(old, json.dumps(r, indent=1, default=float))
+        atomic_write_text(new, json.dumps(r, indent=1, default=float))
 
     if 1 in only:
         r["t1"] = target1(1 if fast else repeats, dur)
