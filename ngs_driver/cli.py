@@ -241,10 +241,12 @@ def _run_one(sc, outdir, resume, progress, overwrite=False, out_key="--out",
     # deferred: a command imports only what it runs (fast --help; --dry-run without NGSolve)
     from .apps import warm as warmup
     child = warmup.start(*warm) if warm is not None else None
+    rc = None
     try:
-        return _run_dam(sc, outdir, resume, progress, overwrite, out_key)
+        rc = _run_dam(sc, outdir, resume, progress, overwrite, out_key)
+        return rc
     finally:
-        warmup.finish(child)
+        warmup.finish(child, wait=rc == 0)
 
 
 def _run_dam(sc, outdir, resume, progress, overwrite, out_key) -> int:

@@ -56,3 +56,22 @@ def test_a_run_starts_the_child_and_leaves_none_behind(tmp_path, monkeypatch):
                  "--quiet"]) == 0
     assert [(s, o) for s, o, _ in seen] == [("koyna_smoke", sets)]
     assert seen[0][2].returncode == 0
+
+
+def test_a_failed_run_leaves_no_child(tmp_path, monkeypatch):
+    """A run that fails when its model is built (koyna_smoke's interior has 538 modes: 539 are
+    refused, exit 2) stops the child instead of waiting for it; either way none is left."""
+    pytest.importorskip("ngsolve")
+    seen = []
+    warm_start = warm.start
+
+    def start(scene, overrides):
+        p = warm_start(scene, overrides)
+        seen.append(p)
+        return p
+
+    monkeypatch.setattr(warm, "start", start)
+    assert main(["run", "koyna_smoke", "--set", "solver.bulk=reduced", "--set",
+                 "solver.bulk_modes=539", "--set", "time.duration=0.01", "--out",
+                 str(tmp_path / "r"), "--quiet"]) == 2
+    assert len(seen) == 1 and seen[0].poll() is not None

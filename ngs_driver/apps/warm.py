@@ -45,12 +45,17 @@ def start(scene, overrides) -> subprocess.Popen | None:
     return p
 
 
-def finish(p: subprocess.Popen | None) -> None:
-    """Wait for the child (it is short; a run outlives it) so that no process is left."""
+def finish(p: subprocess.Popen | None, wait: bool = True) -> None:
+    """No process left behind: after a run that went through, wait for the child (it is
+    short, a run outlives it); after one that failed or was interrupted, stop it (the user
+    has the run's message and should not wait for a warm-up; numba writes each cache file
+    whole, by a rename, so a stopped compile leaves nothing half-written)."""
     if p is None:
         return
+    if not wait:
+        p.terminate()
     try:
-        p.wait(timeout=600)
+        p.wait(timeout=600 if wait else 10)
     except subprocess.TimeoutExpired:    # pragma: no cover - a hung warm-up
         p.kill()
         p.wait()
