@@ -270,9 +270,10 @@ class BoundLaw:
 
     ``bound(gap)`` takes the gap as a float64 array of n * dim values (flat, or (n, dim));
     returns ``traction (n, dim), tangent (n, dim, dim), new_state`` in new arrays, as
-    ``evaluate`` with ``out=None``. Per call: the gap's dtype and shape (O(1)) and one dot
-    product g . g (a NaN, an inf or a value near ``GAP_LIMIT`` fails the quick accept; then
-    ``evaluate``'s own check runs and raises its error, or passes a large finite gap)."""
+    ``evaluate`` with ``out=None``. Per call: the gap's dtype and shape (O(1)) and one sum
+    g . g (``_kernels.sum_squares``; a NaN, an inf or a value near ``GAP_LIMIT`` fails the
+    quick accept; then ``evaluate``'s own check runs and raises its error, or passes a large
+    finite gap)."""
 
     __slots__ = ("law", "state", "dt", "n", "dim", "rdt", "kern", "key", "sflat", "slip",
                  "ready")

@@ -20,7 +20,6 @@ compiles what it needs itself.
 from __future__ import annotations
 
 import json
-import os
 import subprocess
 import sys
 
@@ -34,7 +33,7 @@ def start(scene, overrides) -> subprocess.Popen | None:
     try:
         p = subprocess.Popen([sys.executable, "-m", "ngs_driver.apps.warm"],
                              stdin=subprocess.PIPE, stdout=subprocess.DEVNULL,
-                             stderr=subprocess.DEVNULL, env=dict(os.environ))
+                             stderr=subprocess.DEVNULL)      # the command's environment
     except OSError:
         return None
     try:

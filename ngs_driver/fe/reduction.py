@@ -256,6 +256,11 @@ def _part_modes(n: int) -> int:
     return n if n <= DENSE_EIG else n - 1
 
 
+def _available(parts) -> int:
+    """The fixed-interface modes the interior's parts with mass can give (``_part_modes``)."""
+    return sum(_part_modes(idx.size) for idx, _, _ in parts)
+
+
 def _interior(model):
     """(boundary DOFs, interior DOFs, K_ii, M_ii) of the model's free DOFs."""
     b = boundary_dofs(model)
@@ -271,13 +276,13 @@ def available_modes(model) -> int:
     ``solver.bulk_modes`` on this mesh (the sum over the interior's parts with mass of each
     part's modes, ``_part_modes``)."""
     _, _, Kii, Mii = _interior(model)
-    return sum(_part_modes(idx.size) for idx, _, _ in _mass_parts(Kii, Mii))
+    return _available(_mass_parts(Kii, Mii))
 
 
 def _check_count(parts, n_modes: int) -> None:
     """solver.bulk_modes above the modes the interior has: refused (before any eigensolve)."""
     sizes = [idx.size for idx, _, _ in parts]
-    avail = sum(_part_modes(n) for n in sizes)
+    avail = _available(parts)
     if n_modes <= avail:
         return
     if avail == 0:
@@ -345,7 +350,7 @@ def _modes(parts, Mii, n_modes, cutoff_hz):
         # each of its modes up to that mode's frequency (a part either passed the cut-off, or
         # gave its lowest MAX_CUTOFF_MODES, or every mode it has), so f's entry is the mesh's
         reach = f[min(MAX_CUTOFF_MODES, f.size) - 1]
-        avail = sum(_part_modes(idx.size) for idx, _, _ in parts)
+        avail = _available(parts)
         raise ValueError(f"solver.bulk_cutoff_hz = {cutoff_hz!r}: at or above this mesh's "
                          f"{MAX_CUTOFF_MODES}th fixed-interface mode ({reach:.6g} Hz), the "
                          f"most a cut-off may reach (fe/reduction.py MAX_CUTOFF_MODES: eigsh "
